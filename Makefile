@@ -1,0 +1,43 @@
+# raylab entry points. Every target installs what it needs first (make deps),
+# so on a fresh Debian machine with Rust, Python and git, `make demo` and
+# `make test` are the only two commands needed.
+
+CARGO ?= cargo
+RAYLAB := target/release/raylab
+OUT := out/demo
+
+.PHONY: all deps build demo test bench clean
+
+all: build
+
+## deps: install what is missing (idempotent): real meshes from Debian packages.
+deps:
+	@scripts/deps
+
+## build: release build of the library and the raylab binary.
+build: deps
+	$(CARGO) build --release
+
+## demo: render the source systems' scenes and say where the images are.
+demo: build
+	@mkdir -p $(OUT)
+	$(RAYLAB) render data/scenes/s1-spheres.toml -o $(OUT)/s1-spheres.png
+	$(RAYLAB) render data/scenes/s1-spheres.toml --sampler ogss:2 -o $(OUT)/s1-spheres-ogss2.png
+	$(RAYLAB) render data/scenes/camel.toml -o $(OUT)/camel.png
+	$(RAYLAB) render data/scenes/cornell-box.toml -o $(OUT)/cornell-box.png
+	@echo
+	@echo "demo images are in $(OUT)/:"
+	@ls -1 $(OUT)/*.png | sed 's/^/  /'
+
+## test: every test, including the real-mesh readers and the CLI.
+test: deps
+	$(CARGO) test --all-targets
+	$(CARGO) test --doc
+
+## bench: benchmarks (release builds; print ratios measured in one run).
+bench: deps
+	$(CARGO) bench
+
+clean:
+	$(CARGO) clean
+	rm -rf out analysis/out

@@ -1,0 +1,104 @@
+//! Reading and writing files: meshes (OBJ, PLY, OFF, 3DS), scene files and
+//! images. Readers return an [`InputError`] naming the file, the place in it
+//! and what was expected; they never panic on bad input.
+
+pub mod image;
+pub mod mesh;
+pub mod scene_file;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+pub use mesh::{read_mesh, MeshData};
+
+/// Where in a file an error was found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Place {
+    /// The file as a whole (missing, empty, unreadable).
+    File,
+    /// A 1-based line of a text file.
+    Line(usize),
+    /// A 1-based line and column of a text file.
+    LineCol(usize, usize),
+    /// A byte offset into a binary file.
+    Byte(u64),
+}
+
+impl fmt::Display for Place {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Place::File => Ok(()),
+            Place::Line(l) => write!(f, ":{l}"),
+            Place::LineCol(l, c) => write!(f, ":{l}:{c}"),
+            Place::Byte(b) => write!(f, ": at byte {b}"),
+        }
+    }
+}
+
+/// A problem with an input file: `path:line[:col]: message`, the form
+/// compilers use, so editors can jump to it.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("{}{}: {}", path.display(), place, message)]
+pub struct InputError {
+    pub path: PathBuf,
+    pub place: Place,
+    pub message: String,
+}
+
+impl InputError {
+    pub fn new(path: impl AsRef<Path>, place: Place, message: impl Into<String>) -> Self {
+        Self {
+            path: path.as_ref().to_path_buf(),
+            place,
+            message: message.into(),
+        }
+    }
+
+    /// An error about the file as a whole.
+    pub fn file(path: impl AsRef<Path>, message: impl Into<String>) -> Self {
+        Self::new(path, Place::File, message)
+    }
+
+    /// An error at a 1-based line.
+    pub fn line(path: impl AsRef<Path>, line: usize, message: impl Into<String>) -> Self {
+        Self::new(path, Place::Line(line), message)
+    }
+}
+
+/// 1-based line and column of a byte offset into `text`.
+pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text.as_bytes()[..offset];
+    let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+    let col = offset
+        - before
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |p| p + 1)
+        + 1;
+    (line, col)
+}
+
+/// Write a file atomically: the bytes go to a temporary name beside the
+/// target, which is renamed into place only when complete, so a failed or
+/// interrupted write never leaves a half-written output.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&Path) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| anyhow::anyhow!("{}: not a file name", path.display()))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(file_name);
+    tmp_name.push(format!(".{}.tmp", std::process::id()));
+    let tmp = path.with_file_name(tmp_name);
+    let result = write(&tmp).and_then(|()| {
+        std::fs::rename(&tmp, path)
+            .map_err(|e| anyhow::anyhow!("{}: cannot rename into place: {e}", path.display()))
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}

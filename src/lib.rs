@@ -1,0 +1,23 @@
+//! raylab: a toolkit for studying ray tracing. It renders, and it counts,
+//! measures and plots what rendering costs and how noisy or wrong the
+//! result is.
+//!
+//! Data flows from a scene file ([`io::scene_file`]) to a [`scene::Scene`]
+//! (camera, shapes, materials, lights, accelerator); a [`sampler`] places
+//! samples in each pixel, the [`camera`] turns them into rays, an
+//! [`integrator`] computes their colour using the [`accel`]erator's
+//! intersection queries, and the [`film`] accumulates the result, which
+//! [`io::image`] writes out. Every hot path reports into a [`stats`] sink.
+
+pub mod accel;
+pub mod camera;
+pub mod film;
+pub mod integrator;
+pub mod io;
+pub mod light;
+pub mod material;
+pub mod math;
+pub mod sampler;
+pub mod scene;
+pub mod shape;
+pub mod stats;

@@ -1,0 +1,133 @@
+//! Rays, frames and colour helpers: the small vocabulary every other module
+//! speaks. Geometry is single precision (`glam::Vec3`), as in Embree, so the
+//! two can be compared on equal terms; the few places that need more
+//! precision (the watertight triangle fallback) widen locally.
+
+pub use glam::{Mat3, Vec3};
+
+/// Linear RGB radiance or reflectance.
+pub type Color = Vec3;
+
+/// A ray `r(t) = origin + t·dir` (S2: "S + tD"). `dir` need not be unit
+/// length: intersection routines work for any non-zero direction and report
+/// `t` in units of `dir`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+}
+
+impl Ray {
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        Self { origin, dir }
+    }
+
+    /// The point at parameter `t`.
+    #[inline(always)]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + t * self.dir
+    }
+}
+
+/// Mirror direction of `d` about the normal `n` (S2: P = 2(N·(−D))N + D).
+/// `n` must be unit length; `d` may have any length and the result keeps it.
+#[inline]
+pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
+    d + 2.0 * n.dot(-d) * n
+}
+
+/// Refracted direction by Snell's law (S2's formula). `i` points *away* from
+/// the surface towards where the ray came from (I = −D, unit), `n` is the unit
+/// normal on the incident side (n·i > 0), `eta = n1/n2`. Returns `None` on
+/// total internal reflection, where the square root's argument is negative:
+/// T = (η(N·I) − sqrt(1 − η²(1 − (N·I)²)))·N − η·I.
+#[inline]
+pub fn refract(i: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = n.dot(i);
+    let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+    if k < 0.0 {
+        None
+    } else {
+        Some((eta * cos_i - k.sqrt()) * n - eta * i)
+    }
+}
+
+/// Orthonormal frame (right-handed) around a unit vector `n`, after Duff et
+/// al. 2017, "Building an Orthonormal Basis, Revisited" (branch-free).
+pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+/// Rotation from Euler angles in degrees, applied about x, then y, then z
+/// (R = Rz·Ry·Rx): the convention of the scene files.
+pub fn rotation_xyz_degrees(deg: Vec3) -> Mat3 {
+    Mat3::from_rotation_z(deg.z.to_radians())
+        * Mat3::from_rotation_y(deg.y.to_radians())
+        * Mat3::from_rotation_x(deg.x.to_radians())
+}
+
+/// The sRGB transfer function (IEC 61966-2-1) for one linear value in [0, 1].
+pub fn srgb_encode(linear: f32) -> f32 {
+    let c = linear.clamp(0.0, 1.0);
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Inverse of [`srgb_encode`].
+pub fn srgb_decode(encoded: f32) -> f32 {
+    let c = encoded.clamp(0.0, 1.0);
+    if c <= 0.040_45 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Relative luminance of linear Rec.709/sRGB primaries.
+pub fn luminance(c: Color) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// Largest absolute coordinate: the scale used for self-intersection offsets.
+#[inline]
+pub fn max_abs(p: Vec3) -> f32 {
+    p.abs().max_element()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_round_trip() {
+        for i in 0..=100 {
+            let x = i as f32 / 100.0;
+            assert!((srgb_decode(srgb_encode(x)) - x).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn basis_is_orthonormal() {
+        for n in [
+            Vec3::X,
+            Vec3::Y,
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::new(1.0, 2.0, -3.0).normalize(),
+        ] {
+            let (t, b) = orthonormal_basis(n);
+            assert!(t.dot(b).abs() < 1e-6 && t.dot(n).abs() < 1e-6 && b.dot(n).abs() < 1e-6);
+            assert!((t.length() - 1.0).abs() < 1e-6 && (b.length() - 1.0).abs() < 1e-6);
+            assert!((t.cross(b) - n).length() < 1e-5);
+        }
+    }
+}

@@ -1,0 +1,209 @@
+//! A scene ready to render: camera, materials, lights, primitives and the
+//! accelerator built over them. Scenes come from TOML files
+//! ([`crate::io::scene_file`]) or are assembled in code.
+
+use crate::accel::{Accel, AccelKind, Accelerator};
+use crate::camera::Camera;
+use crate::light::PointLight;
+use crate::material::Material;
+use crate::math::{Color, Ray, Vec3};
+use crate::sampler::Sampler;
+use crate::shape::triangle::NO_MESH;
+use crate::shape::{Bounds, Hit, PreparedRay, PrimHit, Primitive, Shape};
+use crate::stats::Stats;
+
+/// Settings that control the integrator, not the geometry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Colour of rays that hit nothing.
+    pub background: Color,
+    /// Ambient light colour (multiplied by each material's k_a and colour).
+    pub ambient: Color,
+    /// Maximum recursion depth: camera rays are depth 0, and no ray of depth
+    /// `max_depth` or more is spawned.
+    pub max_depth: u32,
+    /// Secondary rays whose weight (product of k_r/k_t along the path) falls
+    /// below this are not traced.
+    pub min_weight: f32,
+    /// Rays end after this distance (S2's "maximum distance m").
+    pub max_distance: f32,
+    pub sampler: Sampler,
+    pub seed: u64,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            background: Color::ZERO,
+            ambient: Color::ONE,
+            max_depth: 5,
+            min_weight: 1e-3,
+            max_distance: 1e30,
+            sampler: Sampler::Centre,
+            seed: 0,
+        }
+    }
+}
+
+/// One object of the scene file: a sphere, an ellipsoid, a plane, a
+/// triangle or a whole mesh. Primitives point back to their object.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneObject {
+    /// A readable name such as `sphere[0]` or `mesh[1] camel.off`.
+    pub name: String,
+    pub material: u32,
+}
+
+/// Per-vertex shading normals of a mesh (empty when the file had none).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshShading {
+    pub normals: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub camera: Camera,
+    pub settings: RenderSettings,
+    pub materials: Vec<Material>,
+    pub objects: Vec<SceneObject>,
+    pub lights: Vec<PointLight>,
+    pub prims: Vec<Primitive>,
+    /// Primitives without bounds (planes), tested outside the accelerator.
+    pub unbounded: Vec<u32>,
+    pub meshes: Vec<MeshShading>,
+    pub accel: Accelerator,
+}
+
+impl Scene {
+    /// Assemble a scene and build its accelerator.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        camera: Camera,
+        settings: RenderSettings,
+        materials: Vec<Material>,
+        objects: Vec<SceneObject>,
+        lights: Vec<PointLight>,
+        prims: Vec<Primitive>,
+        meshes: Vec<MeshShading>,
+        accel: AccelKind,
+    ) -> Self {
+        let (bounded, unbounded): (Vec<u32>, Vec<u32>) =
+            (0..prims.len() as u32).partition(|&i| prims[i as usize].bounds().is_some());
+        let accel = Accelerator::build(accel, &prims, bounded);
+        Self {
+            camera,
+            settings,
+            materials,
+            objects,
+            lights,
+            prims,
+            unbounded,
+            meshes,
+            accel,
+        }
+    }
+
+    /// Rebuild the accelerator as another kind.
+    pub fn set_accel(&mut self, kind: AccelKind) {
+        let bounded = (0..self.prims.len() as u32)
+            .filter(|&i| self.prims[i as usize].bounds().is_some())
+            .collect();
+        self.accel = Accelerator::build(kind, &self.prims, bounded);
+    }
+
+    /// Bounds of every bounded primitive.
+    pub fn bounds(&self) -> Bounds {
+        self.prims
+            .iter()
+            .filter_map(Primitive::bounds)
+            .fold(Bounds::EMPTY, Bounds::union)
+    }
+
+    /// Number of triangles in the scene.
+    pub fn triangle_count(&self) -> usize {
+        self.prims
+            .iter()
+            .filter(|p| matches!(p.shape, Shape::Triangle(_)))
+            .count()
+    }
+
+    /// Closest primitive hit in (0, t_max): accelerator plus unbounded
+    /// primitives.
+    #[inline]
+    pub fn intersect_prim<S: Stats>(
+        &self,
+        ray: &PreparedRay,
+        t_max: f32,
+        stats: &mut S,
+    ) -> Option<(u32, PrimHit)> {
+        let mut best = self.accel.intersect(&self.prims, ray, t_max, stats);
+        let mut t = best.map_or(t_max, |(_, h)| h.t);
+        crate::accel::brute::closest_in(
+            &self.prims,
+            &self.unbounded,
+            ray,
+            &mut t,
+            &mut best,
+            stats,
+        );
+        best
+    }
+
+    /// Closest hit in (0, t_max), with point and normals.
+    #[inline]
+    pub fn intersect<S: Stats>(&self, ray: &Ray, t_max: f32, stats: &mut S) -> Option<Hit> {
+        let pr = PreparedRay::new(*ray);
+        let (id, h) = self.intersect_prim(&pr, t_max, stats)?;
+        Some(self.hit_details(ray, id, &h))
+    }
+
+    /// Whether anything lies on the ray in (0, t_max).
+    #[inline]
+    pub fn occluded<S: Stats>(&self, ray: &Ray, t_max: f32, stats: &mut S) -> bool {
+        let pr = PreparedRay::new(*ray);
+        crate::accel::brute::any_in(&self.prims, &self.unbounded, &pr, t_max, stats)
+            || self.accel.occluded(&self.prims, &pr, t_max, stats)
+    }
+
+    /// Build the full hit record for primitive `id` hit at `h`.
+    pub fn hit_details(&self, ray: &Ray, id: u32, h: &PrimHit) -> Hit {
+        let prim = &self.prims[id as usize];
+        let point = ray.at(h.t);
+        let outward = prim.outward_normal(ray, h);
+        let mut shading = outward;
+        if let Shape::Triangle(tri) = &prim.shape {
+            if tri.mesh != NO_MESH {
+                let mesh = &self.meshes[tri.mesh as usize];
+                if !mesh.normals.is_empty() {
+                    let [a, b, c] = mesh.triangles[tri.face as usize];
+                    let n = (1.0 - h.u - h.v) * mesh.normals[a as usize]
+                        + h.u * mesh.normals[b as usize]
+                        + h.v * mesh.normals[c as usize];
+                    // Interpolated normals can vanish or point to the other
+                    // side of the geometric one; keep them on its side.
+                    if let Some(n) = n.try_normalize() {
+                        shading = if n.dot(outward) < 0.0 { -n } else { n };
+                    }
+                }
+            }
+        }
+        let front_face = outward.dot(ray.dir) < 0.0;
+        let sign = if front_face { 1.0 } else { -1.0 };
+        Hit {
+            t: h.t,
+            point,
+            geometric_normal: sign * outward,
+            shading_normal: sign * shading,
+            prim: id,
+            object: prim.object,
+            front_face,
+        }
+    }
+
+    /// The material of a hit's object.
+    #[inline]
+    pub fn material(&self, hit: &Hit) -> &Material {
+        &self.materials[self.objects[hit.object as usize].material as usize]
+    }
+}

@@ -1,0 +1,97 @@
+//! Ellipsoid: centre, three radii and a rotation. Intersected by mapping the
+//! ray into the frame where the ellipsoid is the unit sphere,
+//! x' = S⁻¹Rᵀ(x − c); the ray parameter `t` is unchanged by an affine map,
+//! and the world normal is the inverse transpose applied to the local one:
+//! n = (S⁻¹Rᵀ)ᵀ n' = R S⁻¹ n'.
+
+use super::sphere::{nearest_root, Sphere};
+use super::{Bounds, PrimHit};
+use crate::math::{Mat3, Ray, Vec3};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ellipsoid {
+    pub centre: Vec3,
+    pub radii: Vec3,
+    pub rotation: Mat3,
+    /// S⁻¹Rᵀ: world offsets to unit-sphere coordinates.
+    to_unit: Mat3,
+}
+
+impl Ellipsoid {
+    /// `rotation` must be orthonormal; radii must be positive.
+    pub fn new(centre: Vec3, radii: Vec3, rotation: Mat3) -> Self {
+        let to_unit = Mat3::from_diagonal(radii.recip()) * rotation.transpose();
+        Self {
+            centre,
+            radii,
+            rotation,
+            to_unit,
+        }
+    }
+
+    /// The affine map unit sphere → world: x = R·S·x' + c.
+    pub fn from_unit(&self) -> Mat3 {
+        self.rotation * Mat3::from_diagonal(self.radii)
+    }
+
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<PrimHit> {
+        let local = Ray::new(
+            self.to_unit * (ray.origin - self.centre),
+            self.to_unit * ray.dir,
+        );
+        nearest_root(Sphere::roots(Vec3::ZERO, 1.0, &local)?, t_max)
+    }
+
+    pub fn normal_at(&self, p: Vec3) -> Vec3 {
+        let local = self.to_unit * (p - self.centre);
+        (self.to_unit.transpose() * local).normalize()
+    }
+
+    /// Tight axis-aligned bounds: along world axis i the half-extent is
+    /// |row i of R·S|, the support of the transformed unit sphere.
+    pub fn bounds(&self) -> Bounds {
+        let m = self.from_unit();
+        let half = Vec3::new(m.row(0).length(), m.row(1).length(), m.row(2).length());
+        Bounds {
+            min: self.centre - half,
+            max: self.centre + half,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::rotation_xyz_degrees;
+
+    #[test]
+    fn axis_aligned_hit_and_normal() {
+        let e = Ellipsoid::new(Vec3::ZERO, Vec3::new(2.0, 1.0, 0.5), Mat3::IDENTITY);
+        let r = Ray::new(Vec3::new(-10.0, 0.0, 0.0), Vec3::X);
+        let h = e.intersect(&r, f32::INFINITY).unwrap();
+        assert!((h.t - 8.0).abs() < 1e-5);
+        assert!((e.normal_at(r.at(h.t)) - -Vec3::X).length() < 1e-5);
+        // Normal at a general point: gradient of x²/a²+y²/b²+z²/c².
+        let p = Vec3::new(2.0 * 0.6, 0.8, 0.0);
+        let g = Vec3::new(p.x / 4.0, p.y, p.z / 0.25).normalize();
+        assert!((e.normal_at(p) - g).length() < 1e-5);
+    }
+
+    #[test]
+    fn rotated_bounds_contain_surface_points() {
+        let e = Ellipsoid::new(
+            Vec3::new(1.0, 2.0, 3.0),
+            Vec3::new(2.0, 1.0, 0.5),
+            rotation_xyz_degrees(Vec3::new(30.0, 45.0, 10.0)),
+        );
+        let b = e.bounds();
+        for i in 0..200 {
+            let th = i as f32 * 0.37;
+            let ph = i as f32 * 0.91;
+            let u = Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+            let p = e.from_unit() * u + e.centre;
+            assert!(p.cmpge(b.min - 1e-5).all() && p.cmple(b.max + 1e-5).all());
+        }
+    }
+}

@@ -1,0 +1,187 @@
+//! The `raylab` binary: bad input gets a clear error naming the file and the
+//! line, a non-zero exit, and no output file.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn raylab(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args(args)
+        .output()
+        .expect("running raylab")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+const GOOD: &str = r#"[image]
+width = 16
+height = 12
+[camera]
+eye = [0.0, 0.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 40.0
+[materials.m]
+color = [0.5, 0.5, 0.5]
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "m"
+[[light]]
+position = [2.0, 2.0, 2.0]
+"#;
+
+/// Run `render` on a scene text; assert failure, no output file, and that
+/// stderr contains each of `expect`.
+fn assert_render_fails(scene_text: &str, expect: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "bad.toml", scene_text);
+    let out = dir.path().join("out.png");
+    let o = raylab(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "should fail: {err}");
+    assert!(!out.exists(), "no output may be left behind");
+    assert!(
+        std::fs::read_dir(dir.path()).unwrap().count() == 1,
+        "no temporary files may be left behind"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    for e in expect {
+        assert!(err.contains(e), "stderr lacks {e:?}: {err}");
+    }
+}
+
+#[test]
+fn good_scene_renders_and_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "ok.toml", GOOD);
+    for ext in ["png", "exr"] {
+        let out = dir.path().join(format!("out.{ext}"));
+        let o = raylab(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--threads",
+            "2",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout);
+        for word in ["16×12", "camera", "shadow", "rays/s"] {
+            assert!(text.contains(word), "stdout lacks {word}: {text}");
+        }
+        assert!(out.exists());
+    }
+}
+
+#[test]
+fn missing_scene_file() {
+    let o = raylab(&["render", "no/such/scene.toml", "-o", "/tmp/never.png"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("no/such/scene.toml"), "{}", stderr(&o));
+}
+
+#[test]
+fn malformed_toml_names_file_and_line() {
+    let text = GOOD.replace("fov = 40.0", "fov = = 40.0");
+    assert_render_fails(&text, &["bad.toml:7:"]);
+}
+
+#[test]
+fn unknown_field_names_file_line_and_field() {
+    let text = GOOD.replace("radius = 1.0", "radius = 1.0\nradiu = 2.0");
+    assert_render_fails(&text, &["bad.toml:13:1:", "radiu"]);
+}
+
+#[test]
+fn unknown_material_names_file_line_and_material() {
+    let text = GOOD.replace("material = \"m\"", "material = \"gold\"");
+    assert_render_fails(
+        &text,
+        &["bad.toml:13:12:", "unknown material `gold`", "`m`"],
+    );
+}
+
+#[test]
+fn bad_values_are_rejected() {
+    assert_render_fails(
+        &GOOD.replace("radius = 1.0", "radius = -1.0"),
+        &["bad.toml:", "radius"],
+    );
+    assert_render_fails(
+        &GOOD.replace("radius = 1.0", "radius = nan"),
+        &["bad.toml:", "radius"],
+    );
+    assert_render_fails(
+        &GOOD.replace("fov = 40.0", "fov = 0.0"),
+        &["bad.toml", "view angle"],
+    );
+    assert_render_fails(
+        &GOOD.replace("[0.0, 0.0, 5.0]", "[0.0, 0.0]"),
+        &["bad.toml:5:"],
+    );
+    let mesh = format!("{GOOD}\n[[mesh]]\nfile = \"missing.off\"\nmaterial = \"m\"\n");
+    assert_render_fails(&mesh, &["bad.toml:", "missing.off"]);
+}
+
+#[test]
+fn bad_arguments_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "ok.toml", GOOD);
+    let s = scene.to_str().unwrap();
+    let out = dir.path().join("x.jpg");
+    let o = raylab(&["render", s, "-o", out.to_str().unwrap()]);
+    assert!(!o.status.success() && stderr(&o).contains("x.jpg"));
+    let png = dir.path().join("x.png");
+    for bad in [
+        vec!["--threads", "0"],
+        vec!["--sampler", "jitter"],
+        vec!["--accel", "octree"],
+        vec!["--width", "-3"],
+        vec!["--width", "0"],
+    ] {
+        let mut args = vec!["render", s, "-o", png.to_str().unwrap()];
+        args.extend(bad.iter());
+        let o = raylab(&args);
+        assert!(!o.status.success(), "{bad:?} should fail");
+        assert!(!png.exists(), "{bad:?} left an output");
+        assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    }
+    // Unwritable output directory.
+    let o = raylab(&["render", s, "-o", "/no/such/dir/out.png"]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("/no/such/dir/out.png"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn help_documents_every_render_option() {
+    let o = raylab(&["render", "--help"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    for opt in [
+        "--output",
+        "--width",
+        "--height",
+        "--threads",
+        "--sampler",
+        "--accel",
+        "--max-depth",
+        "--seed",
+    ] {
+        assert!(text.contains(opt), "--help lacks {opt}");
+    }
+}
