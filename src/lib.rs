@@ -10,6 +10,7 @@
 //! [`io::image`] writes out. Every hot path reports into a [`stats`] sink.
 
 pub mod accel;
+pub mod analysis;
 pub mod camera;
 pub mod film;
 pub mod integrator;
