@@ -392,3 +392,28 @@ fn shipped_scenes_load_and_render_small() {
         );
     }
 }
+
+/// Per-pixel cost buffers sum to the totals, and a background pixel costs
+/// exactly one camera ray testing every primitive once.
+#[test]
+fn per_pixel_costs_sum_to_totals() {
+    let overrides = Overrides {
+        width: Some(40),
+        height: Some(30),
+        ..Default::default()
+    };
+    let s = load_scene(Path::new("data/scenes/s1-spheres.toml"), &overrides).unwrap();
+    let (film, total, costs) = raylab::integrator::render_with_costs(&s, &Whitted, Some(2));
+    let mut sum = Counters::default();
+    for c in &costs {
+        sum += *c;
+    }
+    assert_eq!(sum, total);
+    // The top-left pixel sees the sky: 1 camera ray, 4 spheres + 1 plane.
+    assert_eq!(film.pixel(0, 0).mean, s.settings.background);
+    let c = costs[0];
+    assert_eq!(
+        (c.camera_rays, c.rays(), c.sphere_tests, c.plane_tests),
+        (1, 1, 4, 1)
+    );
+}

@@ -14,7 +14,7 @@ pub use whitted::Whitted;
 use crate::film::{Film, PixelStats};
 use crate::math::{Color, Ray};
 use crate::scene::Scene;
-use crate::stats::Stats;
+use crate::stats::{Counters, Stats};
 use rayon::prelude::*;
 use std::ops::AddAssign;
 
@@ -46,14 +46,57 @@ where
     I: Integrator,
     S: Stats + Default + AddAssign + Send,
 {
-    let run = || render_rows::<I, S>(scene, integrator);
+    in_pool(threads, || render_rows::<I, S>(scene, integrator))
+}
+
+/// Render with full counters and keep each pixel's own counts (the cost
+/// buffers behind per-pixel heatmaps): returns the film, the totals and one
+/// [`Counters`] per pixel, row-major.
+pub fn render_with_costs<I: Integrator>(
+    scene: &Scene,
+    integrator: &I,
+    threads: Option<usize>,
+) -> (Film, Counters, Vec<Counters>) {
+    let run = || {
+        let cam = &scene.camera;
+        let (w, spp, seed) = (
+            cam.width as usize,
+            scene.settings.sampler.spp(),
+            scene.settings.seed,
+        );
+        let mut film = Film::new(cam.width, cam.height);
+        let mut costs = vec![Counters::default(); film.pixels.len()];
+        let total = film
+            .pixels
+            .par_chunks_mut(w)
+            .zip(costs.par_chunks_mut(w))
+            .enumerate()
+            .map(|(py, (row, cost_row))| {
+                let mut row_total = Counters::default();
+                for (px, (pixel, cost)) in row.iter_mut().zip(cost_row.iter_mut()).enumerate() {
+                    *pixel = render_pixel(scene, integrator, px as u32, py as u32, spp, seed, cost);
+                    row_total += *cost;
+                }
+                row_total
+            })
+            .reduce(Counters::default, |mut a, b| {
+                a += b;
+                a
+            });
+        (film, total, costs)
+    };
+    in_pool(threads, run)
+}
+
+/// Run `f` on a pool of `threads` workers, or on rayon's global pool.
+fn in_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T {
     match threads {
-        None => run(),
+        None => f(),
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n.max(1))
             .build()
             .expect("building a rayon thread pool") // only fails on OS thread exhaustion
-            .install(run),
+            .install(f),
     }
 }
 

@@ -4,6 +4,7 @@
 
 pub mod image;
 pub mod mesh;
+pub mod procedural;
 pub mod scene_file;
 
 use std::fmt;

@@ -2,7 +2,8 @@
 //! README ("Scene files"). Unknown fields, unknown material names, bad
 //! values and unreadable meshes are errors that name the file and the line.
 
-use super::{line_col, InputError, Place};
+use super::procedural::Procedural;
+use super::{line_col, InputError, MeshData, Place};
 use crate::accel::AccelKind;
 use crate::camera::Camera;
 use crate::light::{Falloff, PointLight};
@@ -164,8 +165,11 @@ pub enum NormalsDef {
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
 pub struct MeshDef {
-    /// Mesh file, relative to the scene file.
-    pub file: PathBuf,
+    /// Mesh file, relative to the scene file (give this or `procedural`).
+    pub file: Option<PathBuf>,
+    /// A generated mesh instead of a file, e.g.
+    /// `{ kind = "icosphere", level = 6 }`.
+    pub procedural: Option<Procedural>,
     pub material: Spanned<String>,
     /// If given, the mesh is first centred at the origin and scaled so the
     /// largest side of its bounding box is `fit` (meshes come in any units).
@@ -335,12 +339,10 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
     for (i, m) in file.mesh.iter().enumerate() {
         let (d, span) = (m.get_ref(), m.span());
         let mat = material(&d.material)?;
-        let mesh_path = base.join(&d.file);
-        let data = super::read_mesh(&mesh_path)
-            .map_err(|e| at(span.clone(), format!("mesh `{}`: {e}", d.file.display())))?;
+        let (data, label) = load_mesh(d, base).map_err(|msg| at(span.clone(), msg))?;
         let transform =
             MeshTransform::new(d, &data.positions).map_err(|msg| at(span.clone(), msg))?;
-        let object = add_object(format!("mesh[{i}] {}", d.file.display()), mat);
+        let object = add_object(format!("mesh[{i}] {label}"), mat);
         let mesh_index = meshes.len() as u32;
         let positions: Vec<Vec3> = data.positions.iter().map(|&p| transform.point(p)).collect();
         let normals = match d.normals {
@@ -424,6 +426,22 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
     Ok(Scene::new(
         camera, settings, materials, objects, lights, prims, meshes, accel,
     ))
+}
+
+/// The mesh data of a `[[mesh]]` entry and a label for it.
+fn load_mesh(d: &MeshDef, base: &Path) -> Result<(MeshData, String), String> {
+    match (&d.file, &d.procedural) {
+        (Some(file), None) => {
+            let data = super::read_mesh(&base.join(file))
+                .map_err(|e| format!("mesh `{}`: {e}", file.display()))?;
+            Ok((data, file.display().to_string()))
+        }
+        (None, Some(p)) => {
+            let data = p.generate().map_err(|e| format!("procedural mesh: {e}"))?;
+            Ok((data, format!("{p:?}")))
+        }
+        _ => Err("a mesh needs exactly one of `file` and `procedural`".into()),
+    }
 }
 
 /// The object transform of a mesh: optional fit to a box, then scale, rotate
