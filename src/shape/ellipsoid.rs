@@ -11,9 +11,10 @@ use crate::math::{Mat3, Ray, Vec3};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ellipsoid {
     pub centre: Vec3,
-    pub radii: Vec3,
-    pub rotation: Mat3,
-    /// S⁻¹Rᵀ: world offsets to unit-sphere coordinates.
+    /// S⁻¹Rᵀ: world offsets to unit-sphere coordinates. The rotation and
+    /// radii are not stored separately: primitives are kept small (the
+    /// `Shape` enum is as large as its largest variant, and brute force
+    /// streams through all of them).
     to_unit: Mat3,
 }
 
@@ -21,17 +22,17 @@ impl Ellipsoid {
     /// `rotation` must be orthonormal; radii must be positive.
     pub fn new(centre: Vec3, radii: Vec3, rotation: Mat3) -> Self {
         let to_unit = Mat3::from_diagonal(radii.recip()) * rotation.transpose();
-        Self {
-            centre,
-            radii,
-            rotation,
-            to_unit,
-        }
+        Self { centre, to_unit }
     }
 
     /// The affine map unit sphere → world: x = R·S·x' + c.
     pub fn from_unit(&self) -> Mat3 {
-        self.rotation * Mat3::from_diagonal(self.radii)
+        self.to_unit.inverse()
+    }
+
+    /// The linear map world offsets → unit-sphere coordinates, S⁻¹Rᵀ.
+    pub fn to_unit(&self) -> Mat3 {
+        self.to_unit
     }
 
     #[inline]
@@ -76,6 +77,12 @@ mod tests {
         let p = Vec3::new(2.0 * 0.6, 0.8, 0.0);
         let g = Vec3::new(p.x / 4.0, p.y, p.z / 0.25).normalize();
         assert!((e.normal_at(p) - g).length() < 1e-5);
+    }
+
+    #[test]
+    fn primitives_stay_small() {
+        // Brute force streams through every primitive: keep them compact.
+        assert!(std::mem::size_of::<crate::shape::Primitive>() <= 56);
     }
 
     #[test]

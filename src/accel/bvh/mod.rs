@@ -1,0 +1,423 @@
+//! Bounding volume hierarchies, generic over the bounding volume (S3's box,
+//! sphere and ellipsoid, in [`volume`]) and the builder (S3's median split
+//! or binned SAH, in [`build`]). A built [`Bvh`] is a flat array of
+//! plain-old-data [`Node`]s plus a reordered array of primitive indices,
+//! ready to upload to a GPU as is; [`traverse`] walks it with a loop and a
+//! fixed-size stack. [`BvhConfig`] names a variant (`bvh:ellipsoid:s3`) so
+//! scenes and the CLI can pick one; [`BvhStats`] describes a built tree.
+
+pub mod build;
+pub mod traverse;
+pub mod volume;
+
+pub use volume::{Aabb, BoundingEllipsoid, BoundingSphere, BoundingVolume};
+
+use super::Accel;
+use crate::shape::{Bounds, PreparedRay, PrimHit, Primitive};
+use crate::stats::Stats;
+use std::fmt;
+use std::str::FromStr;
+use std::time::Instant;
+
+/// Deepest level a tree may have (the root is level 0), which is also the
+/// size of the traversal stack. Median splits stay far below (2⁶⁴
+/// primitives); SAH trees on pathological inputs are cut off here by
+/// making leaves.
+pub const MAX_DEPTH: u32 = 64;
+
+/// One node of a flattened tree. Plain old data: a volume, two `u32`s, no
+/// enum payloads or pointers (a box node is 32 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node<V> {
+    pub volume: V,
+    /// Interior node: index of its first child; the second child is at
+    /// `first + 1`. Leaf: index of its first primitive in [`Bvh::indices`].
+    pub first: u32,
+    /// Number of primitives of a leaf (at least 1); 0 marks an interior
+    /// node.
+    pub count: u32,
+}
+
+impl<V> Node<V> {
+    fn leaf(volume: V, first: u32, count: u32) -> Self {
+        Node {
+            volume,
+            first,
+            count,
+        }
+    }
+
+    /// Whether this node holds primitives rather than children.
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+}
+
+/// How a node's volume is fitted to its primitives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Fit {
+    /// S3's fit: derived from the axis-aligned box of the primitives.
+    #[default]
+    Box,
+    /// The volume's tight fit over the primitives' support points (Ritter's
+    /// sphere for spheres and ellipsoids; the same box for boxes).
+    Points,
+}
+
+/// Which top-down builder splits the nodes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Builder {
+    /// S3's builder: median centroid split on the longest axis (axes in
+    /// turn for spheres) until a node holds at most the leaf size.
+    S3,
+    /// Binned surface area heuristic.
+    #[default]
+    Sah,
+}
+
+/// Everything that steers a build.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildOptions {
+    pub builder: Builder,
+    pub fit: Fit,
+    /// The most primitives a leaf may hold (S3's "preset number"); the SAH
+    /// builder may stop earlier when splitting does not pay. Default 4.
+    pub leaf_size: u32,
+    /// SAH bins per axis (2..=64). Default 16: Wald (2007) finds 16–32 bins
+    /// within a few percent of the full sweep.
+    pub bins: u32,
+    /// SAH cost of visiting an interior node (testing its children's
+    /// volumes), in units of one primitive test. Default 1.
+    pub traversal_cost: f32,
+    /// SAH cost of one primitive test. Default 1. Equal costs are the usual
+    /// textbook choice; measured costs belong in an experiment, not here.
+    pub intersection_cost: f32,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions {
+            builder: Builder::Sah,
+            fit: Fit::Box,
+            leaf_size: DEFAULT_LEAF_SIZE,
+            bins: 16,
+            traversal_cost: 1.0,
+            intersection_cost: 1.0,
+        }
+    }
+}
+
+/// Leaf size when a name does not give one.
+pub const DEFAULT_LEAF_SIZE: u32 = 4;
+
+/// A bounding volume hierarchy over bounded primitives.
+#[derive(Clone, Debug)]
+pub struct Bvh<V> {
+    nodes: Vec<Node<V>>,
+    indices: Vec<u32>,
+    options: BuildOptions,
+    build_seconds: f64,
+}
+
+impl<V: BoundingVolume> Bvh<V> {
+    /// Build over the primitives `ids` (indices into `prims`; unbounded
+    /// ones are skipped).
+    pub fn build(prims: &[Primitive], ids: Vec<u32>, options: BuildOptions) -> Self {
+        let start = Instant::now();
+        let (nodes, indices) = build::build(prims, ids, &options);
+        Bvh {
+            nodes,
+            indices,
+            options,
+            build_seconds: start.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// The flattened nodes; the root is `nodes()[0]` (empty for no
+    /// primitives).
+    pub fn nodes(&self) -> &[Node<V>] {
+        &self.nodes
+    }
+
+    /// Primitive indices (into the scene's list) in leaf order.
+    pub fn indices(&self) -> &[u32] {
+        &self.indices
+    }
+
+    pub fn options(&self) -> &BuildOptions {
+        &self.options
+    }
+
+    /// Shape and cost figures of the tree (walks it; not for hot paths).
+    pub fn stats(&self, prims: &[Primitive]) -> BvhStats {
+        let mut s = BvhStats {
+            nodes: self.nodes.len(),
+            memory_bytes: std::mem::size_of_val(self.nodes.as_slice())
+                + std::mem::size_of_val(self.indices.as_slice()),
+            build_seconds: self.build_seconds,
+            ..BvhStats::default()
+        };
+        let Some(root) = self.nodes.first() else {
+            return s;
+        };
+        let root_area = root.volume.surface_area();
+        let mut area_ratio_sum = 0.0f64;
+        let mut volume_ratio_sum = 0.0f64;
+        let mut solid_nodes = 0usize;
+        let mut sah = 0.0f64;
+        // Post-order over (node, depth), computing each node's content box
+        // from its children's; `boxes` is indexed by node.
+        let mut boxes = vec![Bounds::EMPTY; self.nodes.len()];
+        let mut stack = vec![(0usize, 0usize, false)];
+        while let Some((i, depth, children_done)) = stack.pop() {
+            let n = &self.nodes[i];
+            if !n.is_leaf() && !children_done {
+                stack.push((i, depth, true));
+                stack.push((n.first as usize, depth + 1, false));
+                stack.push((n.first as usize + 1, depth + 1, false));
+                continue;
+            }
+            s.max_depth = s.max_depth.max(depth);
+            let weight = if root_area > 0.0 {
+                (n.volume.surface_area() / root_area) as f64
+            } else {
+                1.0
+            };
+            boxes[i] = if n.is_leaf() {
+                s.leaves += 1;
+                s.max_leaf_prims = s.max_leaf_prims.max(n.count as usize);
+                sah += weight * n.count as f64 * self.options.intersection_cost as f64;
+                self.indices[n.first as usize..(n.first + n.count) as usize]
+                    .iter()
+                    .filter_map(|&id| prims[id as usize].bounds())
+                    .fold(Bounds::EMPTY, Bounds::union)
+            } else {
+                sah += weight * self.options.traversal_cost as f64;
+                boxes[n.first as usize].union(boxes[n.first as usize + 1])
+            };
+            let content = Aabb::from(boxes[i]);
+            let (a, v) = (content.surface_area(), content.volume());
+            if a > 0.0 {
+                area_ratio_sum += (n.volume.surface_area() / a) as f64;
+            }
+            if v > 0.0 {
+                volume_ratio_sum += (n.volume.volume() / v) as f64;
+                solid_nodes += 1;
+            }
+        }
+        s.mean_leaf_prims = self.indices.len() as f64 / s.leaves as f64;
+        s.sah_cost = sah;
+        s.mean_area_ratio = area_ratio_sum / s.nodes as f64;
+        s.mean_volume_ratio = if solid_nodes > 0 {
+            volume_ratio_sum / solid_nodes as f64
+        } else {
+            f64::NAN
+        };
+        s
+    }
+}
+
+impl<V: BoundingVolume> Accel for Bvh<V> {
+    #[inline]
+    fn intersect<S: Stats>(
+        &self,
+        prims: &[Primitive],
+        ray: &PreparedRay,
+        t_max: f32,
+        stats: &mut S,
+    ) -> Option<(u32, PrimHit)> {
+        let mut best = None;
+        self.traverse::<S, false>(prims, ray, t_max, &mut best, stats);
+        best
+    }
+
+    #[inline]
+    fn occluded<S: Stats>(
+        &self,
+        prims: &[Primitive],
+        ray: &PreparedRay,
+        t_max: f32,
+        stats: &mut S,
+    ) -> bool {
+        self.traverse::<S, true>(prims, ray, t_max, &mut None, stats)
+    }
+}
+
+/// Figures describing a built tree, for `raylab stats` and the experiments.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct BvhStats {
+    /// All nodes, interior and leaves.
+    pub nodes: usize,
+    pub leaves: usize,
+    /// Depth of the deepest leaf (the root is depth 0).
+    pub max_depth: usize,
+    pub mean_leaf_prims: f64,
+    pub max_leaf_prims: usize,
+    /// Bytes of the node array plus the index array.
+    pub memory_bytes: usize,
+    /// Expected cost per ray under the SAH model with the build's constants:
+    /// Σ_interior C_trav·A(n)/A(root) + Σ_leaf C_isect·N(n)·A(n)/A(root),
+    /// with A the surface area of each node's own volume.
+    pub sah_cost: f64,
+    pub build_seconds: f64,
+    /// Wasted space: surface area of each node's volume over that of the
+    /// box of its contents, averaged over nodes (1 for boxes; larger is
+    /// looser). Nodes whose content box has zero area are left out.
+    pub mean_area_ratio: f64,
+    /// The same with volumes, averaged over nodes whose content box has a
+    /// non-zero volume (flat leaves, such as one triangle, have none); NaN
+    /// when there is none.
+    pub mean_volume_ratio: f64,
+}
+
+/// The bounding volume kinds selectable by name, with their fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum VolumeKind {
+    /// `aabb`: axis-aligned box.
+    #[default]
+    Aabb,
+    /// `sphere`: S3's sphere around the box of the contents.
+    Sphere,
+    /// `sphere-ritter`: the tight sphere over the contents' points.
+    SphereRitter,
+    /// `ellipsoid`: S3's axis-aligned ellipsoid through the box's corners.
+    Ellipsoid,
+    /// `ellipsoid-ritter`: the tight axis-aligned ellipsoid.
+    EllipsoidRitter,
+}
+
+impl VolumeKind {
+    /// Every kind, in the order of the names in error messages.
+    pub const ALL: [VolumeKind; 5] = [
+        VolumeKind::Aabb,
+        VolumeKind::Sphere,
+        VolumeKind::SphereRitter,
+        VolumeKind::Ellipsoid,
+        VolumeKind::EllipsoidRitter,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            VolumeKind::Aabb => Aabb::NAME,
+            VolumeKind::Sphere => BoundingSphere::NAME,
+            VolumeKind::SphereRitter => "sphere-ritter",
+            VolumeKind::Ellipsoid => BoundingEllipsoid::NAME,
+            VolumeKind::EllipsoidRitter => "ellipsoid-ritter",
+        }
+    }
+
+    /// How nodes of this kind are fitted.
+    pub fn fit(self) -> Fit {
+        match self {
+            VolumeKind::SphereRitter | VolumeKind::EllipsoidRitter => Fit::Points,
+            _ => Fit::Box,
+        }
+    }
+}
+
+impl Builder {
+    pub const ALL: [Builder; 2] = [Builder::S3, Builder::Sah];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Builder::S3 => "s3",
+            Builder::Sah => "sah",
+        }
+    }
+}
+
+/// A named BVH variant: `bvh:<volume>:<builder>[:<leaf size>]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BvhConfig {
+    pub volume: VolumeKind,
+    pub builder: Builder,
+    pub leaf_size: u32,
+}
+
+impl Default for BvhConfig {
+    /// `bvh` = `bvh:aabb:sah:4`.
+    fn default() -> Self {
+        BvhConfig {
+            volume: VolumeKind::Aabb,
+            builder: Builder::Sah,
+            leaf_size: DEFAULT_LEAF_SIZE,
+        }
+    }
+}
+
+impl BvhConfig {
+    /// The build options this name stands for (other options default).
+    pub fn options(&self) -> BuildOptions {
+        BuildOptions {
+            builder: self.builder,
+            fit: self.volume.fit(),
+            leaf_size: self.leaf_size,
+            ..BuildOptions::default()
+        }
+    }
+
+    /// Every volume × builder combination with the default leaf size.
+    pub fn all() -> impl Iterator<Item = BvhConfig> {
+        VolumeKind::ALL.into_iter().flat_map(|volume| {
+            Builder::ALL.into_iter().map(move |builder| BvhConfig {
+                volume,
+                builder,
+                leaf_size: DEFAULT_LEAF_SIZE,
+            })
+        })
+    }
+}
+
+/// The grammar of BVH names, for error messages.
+pub const BVH_GRAMMAR: &str = "`bvh[:<volume>[:<builder>[:<leaf size>]]]` with <volume> one of \
+     aabb, sphere, sphere-ritter, ellipsoid, ellipsoid-ritter (default aabb), <builder> s3 \
+     (median split on the longest axis) or sah (binned SAH, the default), <leaf size> 1–1000 \
+     (default 4); `bvh` means `bvh:aabb:sah`";
+
+impl FromStr for BvhConfig {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = |what: String| format!("bad BVH name `{s}`: {what}; expected {BVH_GRAMMAR}");
+        let mut parts = s.split(':');
+        if parts.next() != Some("bvh") {
+            return Err(bad("it does not start with `bvh`".into()));
+        }
+        let mut config = BvhConfig::default();
+        if let Some(v) = parts.next() {
+            config.volume = VolumeKind::ALL
+                .into_iter()
+                .find(|k| k.name() == v)
+                .ok_or_else(|| bad(format!("unknown volume `{v}`")))?;
+        }
+        if let Some(b) = parts.next() {
+            config.builder = Builder::ALL
+                .into_iter()
+                .find(|k| k.name() == b)
+                .ok_or_else(|| bad(format!("unknown builder `{b}`")))?;
+        }
+        if let Some(l) = parts.next() {
+            config.leaf_size = l
+                .parse()
+                .ok()
+                .filter(|n| (1..=1000).contains(n))
+                .ok_or_else(|| bad(format!("leaf size `{l}` is not a number in 1–1000")))?;
+        }
+        if let Some(extra) = parts.next() {
+            return Err(bad(format!("unexpected `{extra}`")));
+        }
+        Ok(config)
+    }
+}
+
+impl fmt::Display for BvhConfig {
+    /// The full name, with the leaf size only when it is not the default;
+    /// it parses back to the same configuration.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "bvh:{}:{}", self.volume.name(), self.builder.name())?;
+        if self.leaf_size != DEFAULT_LEAF_SIZE {
+            write!(f, ":{}", self.leaf_size)?;
+        }
+        Ok(())
+    }
+}

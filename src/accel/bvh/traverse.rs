@@ -1,0 +1,103 @@
+//! BVH traversal: one loop with a fixed-size stack, written once for
+//! closest-hit and any-hit queries and for every bounding volume.
+//!
+//! The root's volume is tested first; after that, visiting an interior node
+//! tests the volumes of both its children, descends into the nearer one
+//! (smaller entry distance) and pushes the other with its entry distance. A
+//! popped node whose entry distance exceeds the closest hit found since it
+//! was pushed is dropped without being visited. A leaf tests its primitives
+//! with the brute-force helpers, which shrink `t_max` as hits are found.
+//!
+//! Counting: `node_visit` once per node whose contents are examined (its two
+//! children's volumes tested, or its primitives tested); one bounding-volume
+//! test per volume tested (the root's, then two per interior node visited);
+//! primitive tests as the primitives count them.
+
+use super::volume::BoundingVolume;
+use super::{Bvh, MAX_DEPTH};
+use crate::accel::brute::{any_in, closest_in};
+use crate::shape::{PreparedRay, PrimHit, Primitive};
+use crate::stats::Stats;
+
+impl<V: BoundingVolume> Bvh<V> {
+    /// The shared traversal. With `ANY_HIT` it returns at the first
+    /// primitive hit in (0, t_max) (shadow rays); otherwise it records the
+    /// closest hit in `best` and returns whether there was one.
+    #[inline]
+    pub(super) fn traverse<S: Stats, const ANY_HIT: bool>(
+        &self,
+        prims: &[Primitive],
+        ray: &PreparedRay,
+        mut t_max: f32,
+        best: &mut Option<(u32, PrimHit)>,
+        stats: &mut S,
+    ) -> bool {
+        let Some(root) = self.nodes.first() else {
+            return false;
+        };
+        if root.volume.hit(ray, t_max, stats).is_none() {
+            return false;
+        }
+        // One pending sibling per level at most, and no tree is deeper than
+        // MAX_DEPTH (the builders stop there).
+        let mut stack = [(0u32, 0.0f32); MAX_DEPTH as usize];
+        let mut depth = 0usize;
+        let mut node = 0usize;
+        loop {
+            stats.node_visit();
+            let n = &self.nodes[node];
+            if n.count > 0 {
+                let ids = &self.indices[n.first as usize..(n.first + n.count) as usize];
+                if ANY_HIT {
+                    if any_in(prims, ids, ray, t_max, stats) {
+                        return true;
+                    }
+                } else {
+                    closest_in(prims, ids, ray, &mut t_max, best, stats);
+                }
+            } else {
+                let left = n.first as usize;
+                let right = left + 1;
+                let hit_left = self.nodes[left].volume.hit(ray, t_max, stats);
+                let hit_right = self.nodes[right].volume.hit(ray, t_max, stats);
+                match (hit_left, hit_right) {
+                    (Some(tl), Some(tr)) => {
+                        let (near, far, t_far) = if tl <= tr {
+                            (left, right, tr)
+                        } else {
+                            (right, left, tl)
+                        };
+                        stack[depth] = (far as u32, t_far);
+                        depth += 1;
+                        node = near;
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        node = left;
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        node = right;
+                        continue;
+                    }
+                    (None, None) => {}
+                }
+            }
+            // Pop the nearest pending node that can still hold a closer hit.
+            // Entry distances carry rounding, so a node entered exactly at
+            // the current closest t is still visited (a hit there would have
+            // to be closer by a rounding error to count).
+            loop {
+                if depth == 0 {
+                    return best.is_some();
+                }
+                depth -= 1;
+                let (next, t_enter) = stack[depth];
+                if t_enter <= t_max {
+                    node = next as usize;
+                    break;
+                }
+            }
+        }
+    }
+}
