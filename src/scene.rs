@@ -76,7 +76,8 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Assemble a scene and build its accelerator.
+    /// Assemble a scene and build its accelerator (which only Embree can
+    /// fail to do: then Embree's message).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         camera: Camera,
@@ -87,11 +88,11 @@ impl Scene {
         prims: Vec<Primitive>,
         meshes: Vec<MeshShading>,
         accel: AccelKind,
-    ) -> Self {
+    ) -> Result<Self, String> {
         let (bounded, unbounded): (Vec<u32>, Vec<u32>) =
             (0..prims.len() as u32).partition(|&i| prims[i as usize].bounds().is_some());
-        let accel = Accelerator::build(accel, &prims, bounded);
-        Self {
+        let accel = Accelerator::build(accel, &prims, bounded)?;
+        Ok(Self {
             camera,
             settings,
             materials,
@@ -101,15 +102,16 @@ impl Scene {
             unbounded,
             meshes,
             accel,
-        }
+        })
     }
 
     /// Rebuild the accelerator as another kind.
-    pub fn set_accel(&mut self, kind: AccelKind) {
+    pub fn set_accel(&mut self, kind: AccelKind) -> Result<(), String> {
         let bounded = (0..self.prims.len() as u32)
             .filter(|&i| self.prims[i as usize].bounds().is_some())
             .collect();
-        self.accel = Accelerator::build(kind, &self.prims, bounded);
+        self.accel = Accelerator::build(kind, &self.prims, bounded)?;
+        Ok(())
     }
 
     /// Bounds of every bounded primitive.

@@ -262,7 +262,7 @@ fn check_accelerator_structure(accel: &Accelerator, prims: &[Primitive], config:
         Accelerator::BvhAabb(b, _) => check_structure(b, prims, config),
         Accelerator::BvhSphere(b, _) => check_structure(b, prims, config),
         Accelerator::BvhEllipsoid(b, _) => check_structure(b, prims, config),
-        Accelerator::Brute(_) => unreachable!(),
+        _ => unreachable!("a BVH was built"),
     }
 }
 
@@ -288,7 +288,7 @@ fn agree_with_brute_force(relative: &str, seed: u64) {
     assert!(hits > rays.len() / 4, "too few hits to test anything");
 
     for config in BvhConfig::all() {
-        let accel = Accelerator::build(AccelKind::Bvh(config), &prims, all_ids(&prims));
+        let accel = Accelerator::build(AccelKind::Bvh(config), &prims, all_ids(&prims)).unwrap();
         assert_eq!(accel.kind(), AccelKind::Bvh(config));
         check_accelerator_structure(&accel, &prims, &config);
         let stats = accel.bvh_stats(&prims).expect("a BVH");
@@ -467,7 +467,7 @@ fn test_counts_on_a_hand_built_scene() {
                 builder,
                 leaf_size: 1,
             };
-            let accel = Accelerator::build(AccelKind::Bvh(config), &prims, vec![0, 1]);
+            let accel = Accelerator::build(AccelKind::Bvh(config), &prims, vec![0, 1]).unwrap();
             let stats = accel.bvh_stats(&prims).unwrap();
             assert_eq!((stats.nodes, stats.leaves, stats.max_depth), (3, 2, 1));
             for (k, case) in cases.iter().enumerate() {
@@ -508,13 +508,13 @@ fn degenerate_inputs_build_and_answer() {
     for config in BvhConfig::all() {
         let kind = AccelKind::Bvh(config);
         // No primitives.
-        let empty = Accelerator::build(kind, &[], vec![]);
+        let empty = Accelerator::build(kind, &[], vec![]).unwrap();
         assert!(empty
             .intersect(&[], &ray, f32::INFINITY, &mut NoStats)
             .is_none());
         assert_eq!(empty.bvh_stats(&[]).unwrap().nodes, 0);
         // One primitive: a root leaf.
-        let one = Accelerator::build(kind, &[tri], vec![0]);
+        let one = Accelerator::build(kind, &[tri], vec![0]).unwrap();
         assert_eq!(one.bvh_stats(&[tri]).unwrap().nodes, 1);
         assert!(one.occluded(&[tri], &ray, f32::INFINITY, &mut NoStats));
         // 50 copies of one triangle plus 50 zero-area triangles at one
@@ -523,7 +523,7 @@ fn degenerate_inputs_build_and_answer() {
         // leaves within the limit and find the triangle.
         let mut many = vec![tri; 50];
         many.extend(std::iter::repeat(point).take(50));
-        let accel = Accelerator::build(kind, &many, all_ids(&many));
+        let accel = Accelerator::build(kind, &many, all_ids(&many)).unwrap();
         check_accelerator_structure(&accel, &many, &config);
         let hit = accel.intersect(&many, &ray, f32::INFINITY, &mut NoStats);
         assert!(hit.is_some_and(|(id, h)| id < 50 && (h.t - 5.0).abs() < 1e-6));

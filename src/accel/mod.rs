@@ -6,9 +6,13 @@
 
 pub mod brute;
 pub mod bvh;
+#[cfg(feature = "embree")]
+pub mod embree;
 
 pub use brute::Brute;
 pub use bvh::{Bvh, BvhConfig, BvhStats};
+#[cfg(feature = "embree")]
+pub use embree::{EmbreeAccel, EmbreeConfig};
 
 use bvh::{Aabb, BoundingEllipsoid, BoundingSphere, VolumeKind};
 
@@ -49,6 +53,9 @@ pub enum AccelKind {
     Brute,
     /// A bounding volume hierarchy (`bvh`, `bvh:<volume>:<builder>`, …).
     Bvh(BvhConfig),
+    /// Embree 4 (`embree`, `embree:low|medium|high`, `…+robust`).
+    #[cfg(feature = "embree")]
+    Embree(EmbreeConfig),
 }
 
 impl FromStr for AccelKind {
@@ -57,8 +64,15 @@ impl FromStr for AccelKind {
         match s {
             "brute" => Ok(AccelKind::Brute),
             _ if s == "bvh" || s.starts_with("bvh:") => s.parse().map(AccelKind::Bvh),
+            #[cfg(feature = "embree")]
+            _ if s.starts_with("embree") => s.parse().map(AccelKind::Embree),
+            #[cfg(not(feature = "embree"))]
+            _ if s.starts_with("embree") => Err(format!(
+                "accelerator `{s}` needs Embree, but this raylab was built without the `embree` feature"
+            )),
             _ => Err(format!(
-                "unknown accelerator `{s}` (expected `brute` or {})",
+                "unknown accelerator `{s}` (expected `brute`, {} or \
+                 `embree[:low|medium|high][+robust]`)",
                 bvh::BVH_GRAMMAR
             )),
         }
@@ -70,6 +84,8 @@ impl fmt::Display for AccelKind {
         match self {
             AccelKind::Brute => write!(f, "brute"),
             AccelKind::Bvh(c) => write!(f, "{c}"),
+            #[cfg(feature = "embree")]
+            AccelKind::Embree(c) => write!(f, "{c}"),
         }
     }
 }
@@ -84,13 +100,17 @@ pub enum Accelerator {
     BvhSphere(Bvh<BoundingSphere>, BvhConfig),
     /// A BVH of axis-aligned ellipsoids (either fit).
     BvhEllipsoid(Bvh<BoundingEllipsoid>, BvhConfig),
+    /// Embree 4's own BVH over Embree's own primitives.
+    #[cfg(feature = "embree")]
+    Embree(EmbreeAccel),
 }
 
 impl Accelerator {
     /// Build an accelerator of `kind` over the primitives `bounded` (indices
-    /// into `prims`).
-    pub fn build(kind: AccelKind, prims: &[Primitive], bounded: Vec<u32>) -> Self {
-        match kind {
+    /// into `prims`). Only Embree can fail (no usable device, out of
+    /// memory): the error says what Embree reported.
+    pub fn build(kind: AccelKind, prims: &[Primitive], bounded: Vec<u32>) -> Result<Self, String> {
+        Ok(match kind {
             AccelKind::Brute => Accelerator::Brute(Brute::new(bounded)),
             AccelKind::Bvh(c) => {
                 let o = c.options();
@@ -104,7 +124,11 @@ impl Accelerator {
                     }
                 }
             }
-        }
+            #[cfg(feature = "embree")]
+            AccelKind::Embree(c) => Accelerator::Embree(
+                EmbreeAccel::build(prims, &bounded, c).map_err(|e| e.to_string())?,
+            ),
+        })
     }
 
     /// Shape and cost figures of a BVH; `None` for other accelerators.
@@ -114,6 +138,8 @@ impl Accelerator {
             Accelerator::BvhAabb(b, _) => Some(b.stats(prims)),
             Accelerator::BvhSphere(b, _) => Some(b.stats(prims)),
             Accelerator::BvhEllipsoid(b, _) => Some(b.stats(prims)),
+            #[cfg(feature = "embree")]
+            Accelerator::Embree(_) => None,
         }
     }
 
@@ -123,6 +149,8 @@ impl Accelerator {
             Accelerator::BvhAabb(_, c)
             | Accelerator::BvhSphere(_, c)
             | Accelerator::BvhEllipsoid(_, c) => AccelKind::Bvh(*c),
+            #[cfg(feature = "embree")]
+            Accelerator::Embree(a) => AccelKind::Embree(a.config()),
         }
     }
 }
@@ -141,6 +169,8 @@ impl Accel for Accelerator {
             Accelerator::BvhAabb(a, _) => a.intersect(prims, ray, t_max, stats),
             Accelerator::BvhSphere(a, _) => a.intersect(prims, ray, t_max, stats),
             Accelerator::BvhEllipsoid(a, _) => a.intersect(prims, ray, t_max, stats),
+            #[cfg(feature = "embree")]
+            Accelerator::Embree(a) => a.intersect(prims, ray, t_max, stats),
         }
     }
 
@@ -157,7 +187,8 @@ impl Accel for Accelerator {
             Accelerator::BvhAabb(a, _) => a.occluded(prims, ray, t_max, stats),
             Accelerator::BvhSphere(a, _) => a.occluded(prims, ray, t_max, stats),
             Accelerator::BvhEllipsoid(a, _) => a.occluded(prims, ray, t_max, stats),
+            #[cfg(feature = "embree")]
+            Accelerator::Embree(a) => a.occluded(prims, ray, t_max, stats),
         }
     }
 }
-

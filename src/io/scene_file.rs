@@ -423,9 +423,10 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
     let camera = Camera::new(c.eye, c.look_at, c.up, c.fov, aspect, c.near, width, height)
         .map_err(|e| InputError::file(path, format!("[camera]: {e}")))?;
 
-    Ok(Scene::new(
+    Scene::new(
         camera, settings, materials, objects, lights, prims, meshes, accel,
-    ))
+    )
+    .map_err(|e| InputError::file(path, format!("accelerator: {e}")))
 }
 
 /// The mesh data of a `[[mesh]]` entry and a label for it.
