@@ -18,16 +18,23 @@ deps:
 build: deps
 	$(CARGO) build --release
 
-## demo: render the source systems' scenes and say where the images are.
+## demo: render the source systems' scenes, re-run S1's experiment (its
+## tables and plots), and say where everything is.
 demo: build
 	@mkdir -p $(OUT)
 	$(RAYLAB) render data/scenes/s1-spheres.toml -o $(OUT)/s1-spheres.png
 	$(RAYLAB) render data/scenes/s1-spheres.toml --sampler ogss:2 -o $(OUT)/s1-spheres-ogss2.png
 	$(RAYLAB) render data/scenes/camel.toml -o $(OUT)/camel.png
+	$(RAYLAB) render data/scenes/camel.toml --accel embree -o $(OUT)/camel-embree.png
+	$(RAYLAB) diff $(OUT)/camel-embree.png $(OUT)/camel.png
 	$(RAYLAB) render data/scenes/cornell-box.toml -o $(OUT)/cornell-box.png
+	$(RAYLAB) stats data/scenes/camel.toml --width 200 --height 150 --out $(OUT)/stats-camel
+	$(RAYLAB) experiment analysis/s1-ogss-cost.toml
 	@echo
 	@echo "demo images are in $(OUT)/:"
 	@ls -1 $(OUT)/*.png | sed 's/^/  /'
+	@echo "cost heatmaps: $(OUT)/stats-camel/"
+	@echo "S1 experiment (data.csv, meta.json, figures): analysis/out/s1-ogss-cost/"
 
 ## test: every test, including the real-mesh readers and the CLI.
 test: deps

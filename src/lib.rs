@@ -12,6 +12,7 @@
 pub mod accel;
 pub mod analysis;
 pub mod camera;
+pub mod experiment;
 pub mod film;
 pub mod integrator;
 pub mod io;
@@ -22,3 +23,4 @@ pub mod sampler;
 pub mod scene;
 pub mod shape;
 pub mod stats;
+pub mod stats_report;

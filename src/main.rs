@@ -3,11 +3,15 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use raylab::accel::AccelKind;
+use raylab::analysis::diff_files;
+use raylab::experiment;
 use raylab::integrator::{render, Whitted};
 use raylab::io::image::{write_image, ImageFormat};
 use raylab::io::scene_file::{load_scene, Overrides};
 use raylab::sampler::Sampler;
 use raylab::stats::RayCounts;
+use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -27,6 +31,81 @@ enum Command {
     /// Prints the resolution, the rays traced by kind, the time to load the
     /// scene and to render it, and rays per second.
     Render(RenderArgs),
+    /// Compare an image with a reference (MSE, relMSE, PSNR, ꟻLIP).
+    ///
+    /// Prints the mean squared error, relative MSE, PSNR, the largest
+    /// absolute error and NVIDIA's ꟻLIP statistics. Both images are read as linear RGB (PNG is decoded from sRGB, EXR is
+    /// taken as is) and must have the same size. PSNR is printed as `inf`
+    /// in JSON (∞ in the table) when the images are identical.
+    Diff(DiffArgs),
+    /// Run an experiment manifest: timed sweeps to data.csv, meta.json, figures.
+    ///
+    /// Runs every point of the sweeps of a manifest (analysis/NAME.toml)
+    /// with a progress bar, appending one row per run to data.csv, and
+    /// writes meta.json and the manifest's figures (PNG + SVG). The manifest format is described in the README ("Running an
+    /// experiment"). Build with --release: timings of a debug build mean
+    /// little, and raylab warns when it is one.
+    Experiment(ExperimentArgs),
+    /// Count what tracing a scene costs with each accelerator: a pbrt-style
+    /// table (rays by kind, nodes visited, volume and primitive tests, per-ray
+    /// means, p50/p90/p99/max per camera ray, BVH shape, build and render
+    /// times) and per-pixel heatmaps `<accel>-nodes` and `<accel>-prim-tests`
+    /// (PNG + SVG, log scale; `:` in names becomes `-`).
+    ///
+    /// Default accelerators: brute (only below 5000 primitives),
+    /// bvh:aabb:sah, bvh:sphere:s3, bvh:ellipsoid:s3.
+    Stats {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Accelerator to measure; repeat to compare several.
+        #[arg(long)]
+        accel: Vec<AccelKind>,
+        /// Image width in pixels (overrides the scene's).
+        #[arg(long)]
+        width: Option<u32>,
+        /// Image height in pixels (overrides the scene's).
+        #[arg(long)]
+        height: Option<u32>,
+        /// Heatmap folder (default: out/stats/<scene stem>/).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Render threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
+}
+
+#[derive(clap::Args, Debug)]
+struct DiffArgs {
+    /// The image to judge (.png or .exr).
+    test: PathBuf,
+    /// The reference image (.png or .exr), same size as TEST.
+    reference: PathBuf,
+    /// Write the ꟻLIP error map here as a magma-coloured PNG.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print the metrics as one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+struct ExperimentArgs {
+    /// The manifest (TOML).
+    manifest: PathBuf,
+    /// Run the reduced version declared in the manifest's [quick] block.
+    #[arg(long)]
+    quick: bool,
+    /// Keep the rows of an existing data.csv and run only the missing ones.
+    #[arg(long)]
+    resume: bool,
+    /// Output folder (default: out/NAME beside the manifest, e.g.
+    /// analysis/out/NAME).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Worker threads (default: the manifest's `threads`, else all cores).
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -66,6 +145,26 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => cmd_render(args),
+        Command::Diff(args) => cmd_diff(args),
+        Command::Experiment(args) => cmd_experiment(args),
+        Command::Stats {
+            scene,
+            accel,
+            width,
+            height,
+            out,
+            threads,
+        } => {
+            let opts = raylab::stats_report::StatsOptions {
+                scene,
+                accels: accel,
+                width,
+                height,
+                out,
+                threads,
+            };
+            raylab::stats_report::run(&opts, &mut std::io::stdout().lock()).map(|_| ())
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -138,4 +237,82 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         println!("wrote      {}", args.output.display());
     }
     Ok(())
+}
+
+fn cmd_diff(args: DiffArgs) -> Result<()> {
+    let metrics = diff_files(&args.test, &args.reference, args.out.as_deref())?;
+    let mut text = String::new();
+    if args.json {
+        let mut json = serde_json::to_value(metrics)?;
+        // JSON has no infinity (serde_json would write null): identical
+        // images get the string "inf", as Python's float("inf") reads it.
+        if metrics.psnr.is_infinite() {
+            json["psnr"] = serde_json::Value::from("inf");
+        }
+        json["test"] = args.test.display().to_string().into();
+        json["reference"] = args.reference.display().to_string().into();
+        if let Some(out) = &args.out {
+            json["error_map"] = out.display().to_string().into();
+        }
+        writeln!(text, "{}", serde_json::to_string_pretty(&json)?)?;
+    } else {
+        writeln!(text, "test       {}", args.test.display())?;
+        writeln!(text, "reference  {}", args.reference.display())?;
+        write!(text, "{metrics}")?;
+        if let Some(out) = &args.out {
+            writeln!(text, "wrote      {}", out.display())?;
+        }
+    }
+    print_out(&text)
+}
+
+fn cmd_experiment(args: ExperimentArgs) -> Result<()> {
+    if args.threads == Some(0) {
+        anyhow::bail!("--threads must be at least 1");
+    }
+    let opts = experiment::Options {
+        quick: args.quick,
+        resume: args.resume,
+        out_dir: args.out,
+        threads: args.threads,
+        progress: true,
+    };
+    let report = experiment::run_experiment(&args.manifest, &opts)?;
+    let dir = report.out_dir.display();
+    let mut text = String::new();
+    writeln!(
+        text,
+        "experiment {}: {} runs ({} done now, {} kept from data.csv), {} threads, {:.1} s",
+        report.name,
+        report.runs_total,
+        report.runs_done,
+        report.runs_skipped,
+        report.threads,
+        report.wall_time_s
+    )?;
+    writeln!(text, "wrote      {dir}/{{data.csv, meta.json}}")?;
+    for f in &report.figures {
+        writeln!(text, "figure     {dir}/{f}.{{png,svg}}")?;
+    }
+    for s in &report.summary {
+        writeln!(text, "summary    {}: mean of {}", s.figure, s.label)?;
+        for m in &s.series {
+            writeln!(
+                text,
+                "             {:.2} over {:>2} points  {}",
+                m.mean, m.count, m.label
+            )?;
+        }
+    }
+    print_out(&text)
+}
+
+/// Write to stdout; a reader that went away (`raylab diff … | head`) is
+/// not an error.
+fn print_out(text: &str) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
 }

@@ -1,0 +1,397 @@
+//! Experiments: a manifest (`analysis/NAME.toml`) names a study kind, the
+//! parameters to sweep and the figures to draw; [`run_experiment`] runs
+//! every point of every sweep with a progress bar, appends one row per run
+//! to `data.csv`, records `meta.json` and draws the figures. It sits on top
+//! of the data flow: it loads scenes and renders them through the ordinary
+//! pipeline (`io::scene_file`, `integrator::render`, `stats`), then hands
+//! the numbers to `analysis::plot`.
+//!
+//! # Manifest format
+//!
+//! ```toml
+//! name = "s1-ogss-cost"       # required: names the output folder
+//! kind = "render_cost"        # required: the study kind (see below)
+//! description = "What it asks."
+//! repeats = 5                 # timed repeats per run (default 5, at least 1)
+//! warmup = 1                  # untimed runs before them (default 1)
+//! threads = 2                 # worker threads (default: all cores; --threads wins)
+//!
+//! [fixed]                     # parameters of every run, one value each
+//! scene = "../data/scenes/s1-spheres.toml"
+//!
+//! [[sweep]]                   # one or more sweeps, each with a unique name
+//! name = "resolutions"
+//! resolution = ["300x225", "550x412", "800x600"]  # a list of values
+//! sampler = ["centre", "ogss:2"]
+//!
+//! [[sweep]]
+//! name = "scenes"
+//! scene_index = { from = 1, to = 20, step = 1 }   # a range, both ends included
+//! scene = "../data/scenes/s1-family/s1-{scene_index:02}.toml"  # a template
+//! resolution = "640x480"                            # one value
+//! sampler = ["centre", "ogss:2"]
+//!
+//! [quick]                     # the reduced version run by --quick
+//! repeats = 1
+//! warmup = 0
+//! [quick.fixed]               # replaces or adds [fixed] parameters
+//! seed = 1
+//! [quick.sweep.resolutions]   # replaces parameters of sweep `resolutions`
+//! resolution = ["300x225", "400x300"]
+//!
+//! [[figure]]                  # any number of figures, drawn from data.csv
+//! file = "ratio-resolution"   # writes ratio-resolution.png and .svg
+//! kind = "ratio"              # "line", "bar" or "ratio"
+//! sweep = "resolutions"       # only this sweep's rows (default: all rows)
+//! x = "width"                 # any column of data.csv
+//! y = "render_median_s"       # a column, or a list: one series per column
+//! series = "sampler"          # column whose values make the series
+//! numerator = "ogss:2"        # ratio only: y(numerator) / y(denominator)
+//! denominator = "centre"
+//! series_labels = { centre = "centre (1 spp)" }   # legend text per value or y column
+//! title = "T = t_OGSS / t_centre"
+//! x_label = "image width (px)"  # default: the column name
+//! y_label = "T"                 # default: the column name
+//! x_log = false               # log10 axes
+//! y_log = false
+//! [[figure.reference]]        # series given inline (published values)
+//! label = "S1 (published)"
+//! x = { from = 300, to = 800, step = 25 }   # a list or a range
+//! y = [4.00, 3.00, 2.50]                    # as many values as x
+//! style = "dashed"            # "dashed" (default), "points" or "line"
+//! summary = true              # ratio figures: report its mean (default true)
+//! ```
+//!
+//! Every table rejects unknown fields, and every error names the manifest,
+//! the line and the column. Parameter values are integers, floats, booleans
+//! or strings. In a `[[sweep]]` a parameter is one value, a list, or a range
+//! `{ from, to, step }` (to included when a whole number of steps away;
+//! a negative step counts down) or `{ from, to, count }` (`count` evenly
+//! spaced values from `from` to `to`); integers stay integers when every
+//! value is one. A sweep's runs are the cartesian product of its parameters,
+//! the first one written varying slowest, merged over `[fixed]` (a sweep's
+//! value of a parameter replaces the fixed one). A string may name other
+//! parameters of its run as `{name}` or `{name:0W}` (an integer zero-padded
+//! to W digits; `{{` and `}}` are literal braces). A parameter the study
+//! does not read is an error unless a template uses it; such helper
+//! parameters (`scene_index` above) become columns too, handy as x axes.
+//! Relative paths are relative to the manifest's folder.
+//!
+//! `[quick]` declares the reduced version of the experiment that `--quick`
+//! runs (for CI and the book): its `repeats` and `warmup` replace the
+//! manifest's, `[quick.fixed]` replaces or adds fixed parameters, and
+//! `[quick.sweep.NAME]` replaces parameters of sweep NAME (a parameter
+//! that the sweep lacks but `[fixed]` has is added to the sweep).
+//!
+//! # Outputs
+//!
+//! In `analysis/out/NAME/` (the manifest's folder, `out/`, the name), or
+//! the folder given by `--out`:
+//!
+//! - `data.csv`: one row per run: `sweep`, every parameter (fixed and
+//!   swept), then the study's columns. Rows are appended and flushed as
+//!   each run finishes, so an interrupted experiment keeps its finished
+//!   rows. Without `--resume` the file is started afresh (the new header
+//!   replaces the old file atomically); with `--resume` the rows already
+//!   there are kept and runs whose key (sweep and every parameter value)
+//!   is present are skipped. The columns must match the manifest's.
+//! - `meta.json`: the manifest as run (after `--quick`, ranges expanded),
+//!   raylab version, git revision and dirty flag, CPU model, thread count,
+//!   whether the build was optimised, UTC start and end (ISO 8601), wall
+//!   time, the run counts, the figures and the means of ratio figures.
+//!   Written at the start with `"complete": false` and again at the end.
+//! - one `FILE.png` and `FILE.svg` per `[[figure]]`, drawn from `data.csv`
+//!   after the runs, so `--resume` redraws them from every row. The mean of
+//!   each series of a ratio figure (and of its references) is returned in
+//!   the [`Report`], printed by `raylab experiment` and kept in `meta.json`.
+//!
+//! # Study kinds
+//!
+//! `render_cost` ([`study::render_cost`]): parameters `scene` (required),
+//! `sampler`, `accel`, `resolution` ("WxH") or `width`/`height`,
+//! `max_depth`, `seed`. Columns: `width`, `height`, `pixels`, `spp`,
+//! `samples` (pixels × spp), `threads`, `load_s` (scene load and
+//! accelerator build), `render_s_1` … `render_s_N` (each timed repeat),
+//! `render_median_s`, `render_min_s`, `render_max_s`, `render_cpu_median_s`
+//! (median process CPU time of the repeats, all threads: a cross-check
+//! that other programs on a shared machine disturb far less than the wall
+//! clock), `counted_render_s`,
+//! every counter of [`crate::stats::Counters::named`], `rays`,
+//! `rays_per_s` (rays / median time) and `ns_per_sample`.
+//!
+//! Timing: a warning is printed when the binary was built without
+//! optimisations; each run does `warmup` untimed renders and `repeats`
+//! timed ones, and reports each time and their median, minimum and
+//! maximum. The timed renders use the `NoStats` sink, so they are not slowed
+//! by counting; the counters come from one extra render with `Counters`.
+//! All renders of an experiment share one thread pool, built once.
+
+pub mod data;
+pub mod figures;
+pub mod manifest;
+pub mod meta;
+pub mod study;
+pub mod sweep;
+
+pub use manifest::{load_manifest, parse_manifest, Manifest, Plan};
+pub use meta::RatioSummary;
+
+use anyhow::{bail, Context};
+use data::{RowWriter, Table, DATA_FILE};
+use indicatif::{ProgressBar, ProgressStyle};
+use meta::Meta;
+use std::collections::HashSet;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::{Instant, SystemTime};
+use study::RunContext;
+
+/// How to run an experiment (the `raylab experiment` options).
+#[derive(Clone, Debug, Default)]
+pub struct Options {
+    /// Apply the manifest's `[quick]` block.
+    pub quick: bool,
+    /// Keep the rows of an existing `data.csv` and skip their runs.
+    pub resume: bool,
+    /// Output folder (default: `out/NAME` beside the manifest).
+    pub out_dir: Option<PathBuf>,
+    /// Worker threads (default: the manifest's, else all cores).
+    pub threads: Option<usize>,
+    /// Print status lines and a progress bar on stderr (the bar only when
+    /// stderr is a terminal).
+    pub progress: bool,
+}
+
+/// What an experiment did.
+#[derive(Clone, Debug)]
+pub struct Report {
+    /// The experiment's name.
+    pub name: String,
+    /// Where `data.csv`, `meta.json` and the figures are.
+    pub out_dir: PathBuf,
+    /// Runs in the plan.
+    pub runs_total: usize,
+    /// Runs skipped because `data.csv` had them (`--resume`).
+    pub runs_skipped: usize,
+    /// Runs performed.
+    pub runs_done: usize,
+    /// Worker threads used.
+    pub threads: usize,
+    /// Seconds from start to end.
+    pub wall_time_s: f64,
+    /// Stems of the figures written (each as PNG and SVG).
+    pub figures: Vec<String>,
+    /// Means of the ratio figures beside their references.
+    pub summary: Vec<RatioSummary>,
+}
+
+/// Run the experiment described by the manifest at `path`.
+pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
+    let clock = Instant::now();
+    let started = SystemTime::now();
+    let mut manifest = load_manifest(path)?;
+    if opts.quick {
+        manifest = manifest.with_quick()?;
+    }
+    let threads = opts
+        .threads
+        .or(manifest.threads)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    anyhow::ensure!(threads >= 1, "the thread count must be at least 1");
+    let plan = manifest.plan()?;
+    let study = manifest.study();
+    let out_dir = opts
+        .out_dir
+        .clone()
+        .unwrap_or_else(|| manifest.base_dir().join("out").join(&manifest.name));
+    std::fs::create_dir_all(&out_dir)
+        .with_context(|| format!("{}: cannot create the output folder", out_dir.display()))?;
+
+    if cfg!(debug_assertions) {
+        eprintln!(
+            "warning: ********************************************************************\n\
+             warning: raylab was built WITHOUT optimisations (debug assertions are on):\n\
+             warning: these timings say little about the renderer. For real numbers run\n\
+             warning:     cargo build --release && target/release/raylab experiment …\n\
+             warning: ********************************************************************"
+        );
+    }
+
+    // data.csv: fresh, or resumed with the keys of the rows already there.
+    let data_path = out_dir.join(DATA_FILE);
+    let (mut writer, done) = if opts.resume && data_path.exists() {
+        let (table, dropped) = Table::read(&data_path)?;
+        if dropped {
+            eprintln!(
+                "warning: {}: dropped an incomplete last line (an interrupted write); \
+                 that run will be done again",
+                data_path.display()
+            );
+        }
+        if table.columns != plan.columns {
+            bail!(
+                "{}: its columns differ from what {} now produces (was the manifest, \
+                 `repeats` or --quick changed?); run without --resume to start afresh\n  \
+                 file:     {}\n  manifest: {}",
+                data_path.display(),
+                manifest.path.display(),
+                table.columns.join(","),
+                plan.columns.join(",")
+            );
+        }
+        let key_len = 1 + plan.param_columns.len();
+        let done: HashSet<Vec<String>> = table.rows.iter().map(|r| r[..key_len].to_vec()).collect();
+        (RowWriter::resume(&data_path, &table)?, done)
+    } else {
+        (
+            RowWriter::create(&data_path, &plan.columns)?,
+            HashSet::new(),
+        )
+    };
+    let todo: Vec<_> = plan
+        .runs
+        .iter()
+        .filter(|r| !done.contains(&plan.key(r)))
+        .collect();
+    let skipped = plan.runs.len() - todo.len();
+
+    let (git_revision, git_dirty) = meta::git_revision(manifest.base_dir());
+    let mut meta = Meta {
+        name: manifest.name.clone(),
+        kind: manifest.kind.clone(),
+        manifest: manifest.to_json(),
+        raylab_version: env!("CARGO_PKG_VERSION").to_string(),
+        git_revision,
+        git_dirty,
+        cpu_model: meta::cpu_model(),
+        logical_cpus: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        threads,
+        optimised: !cfg!(debug_assertions),
+        started_utc: meta::utc_iso8601(started),
+        finished_utc: None,
+        wall_time_s: 0.0,
+        quick: opts.quick,
+        resumed: opts.resume,
+        runs_total: plan.runs.len(),
+        runs_skipped: skipped,
+        runs_done: 0,
+        complete: false,
+        figures: Vec::new(),
+        summary: Vec::new(),
+    };
+    meta.write(&out_dir)?;
+
+    if opts.progress {
+        eprintln!(
+            "experiment {} ({}{}): {} runs{}, {} repeats + {} warm-up, {} threads → {}",
+            manifest.name,
+            manifest.kind,
+            if opts.quick { ", quick" } else { "" },
+            plan.runs.len(),
+            if skipped > 0 {
+                format!(" ({skipped} already in data.csv)")
+            } else {
+                String::new()
+            },
+            manifest.repeats,
+            manifest.warmup,
+            threads,
+            out_dir.display()
+        );
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start the worker threads")?;
+    let bar = if opts.progress && std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(todo.len() as u64);
+        if let Ok(style) =
+            ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} eta {eta} {msg}")
+        {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let ctx = RunContext {
+        base_dir: manifest.base_dir(),
+        settings: manifest.settings(),
+    };
+    for run in &todo {
+        let what = run.describe(&plan.varying);
+        bar.set_message(what.clone());
+        let row = match pool.install(|| study.run(run, &ctx)) {
+            Ok(row) => row,
+            Err(e) => {
+                bar.abandon();
+                meta.wall_time_s = clock.elapsed().as_secs_f64();
+                let _ = meta.write(&out_dir);
+                return Err(e.context(format!(
+                    "{}: run `{what}` failed ({} of {} runs finished are in {})",
+                    manifest.path.display(),
+                    meta.runs_done + skipped,
+                    plan.runs.len(),
+                    data_path.display()
+                )));
+            }
+        };
+        let cells: Vec<String> = plan
+            .columns
+            .iter()
+            .map(|c| {
+                if c == "sweep" {
+                    run.sweep.clone()
+                } else if let Some(v) = run.get(c) {
+                    v.to_string()
+                } else {
+                    row.iter()
+                        .find(|(name, _)| name == c)
+                        .map(|(_, v)| v.clone())
+                        .unwrap_or_default()
+                }
+            })
+            .collect();
+        writer.append(&cells)?;
+        meta.runs_done += 1;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    drop(writer);
+
+    // Figures, from everything data.csv now holds.
+    let (table, _) = Table::read(&data_path)?;
+    let mut failures = Vec::new();
+    for spec in &manifest.figures {
+        match figures::draw(spec, &table, &plan.param_columns, &out_dir) {
+            Ok(summary) => {
+                meta.figures.push(spec.file.clone());
+                meta.summary.extend(summary);
+            }
+            Err(e) => failures.push(format!("{e:#}")),
+        }
+    }
+    meta.wall_time_s = clock.elapsed().as_secs_f64();
+    meta.finished_utc = Some(meta::utc_iso8601(SystemTime::now()));
+    meta.complete = failures.is_empty();
+    meta.write(&out_dir)?;
+    if !failures.is_empty() {
+        bail!(
+            "{}: the runs finished ({}), but figures failed:\n  {}",
+            manifest.path.display(),
+            data_path.display(),
+            failures.join("\n  ")
+        );
+    }
+    Ok(Report {
+        name: manifest.name.clone(),
+        out_dir,
+        runs_total: plan.runs.len(),
+        runs_skipped: skipped,
+        runs_done: meta.runs_done,
+        threads,
+        wall_time_s: meta.wall_time_s,
+        figures: meta.figures.clone(),
+        summary: meta.summary.clone(),
+    })
+}
