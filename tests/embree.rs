@@ -23,40 +23,8 @@ use raylab::stats::NoStats;
 use rayon::prelude::*;
 use std::path::Path;
 
-/// SplitMix64 (Steele, Lea & Flood 2014): a tiny seeded generator, enough
-/// for test rays.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1), 24 random bits.
-    fn f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
-    }
-
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f32()
-    }
-
-    /// Uniform direction on the unit sphere (Archimedes: z uniform).
-    fn unit_vector(&mut self) -> Vec3 {
-        let z = 2.0 * self.f32() - 1.0;
-        let phi = std::f32::consts::TAU * self.f32();
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(s * phi.cos(), s * phi.sin(), z)
-    }
-
-    fn in_box(&mut self, b: &Bounds) -> Vec3 {
-        b.min + b.extent() * Vec3::new(self.f32(), self.f32(), self.f32())
-    }
-}
+mod common;
+use common::SplitMix64;
 
 fn prim(shape: Shape) -> Primitive {
     Primitive { shape, object: 0 }
@@ -81,9 +49,9 @@ fn random_rays(
     b: &Bounds,
     n: usize,
     seed: u64,
-    mut target: impl FnMut(&mut Rng) -> Vec3,
+    mut target: impl FnMut(&mut SplitMix64) -> Vec3,
 ) -> Vec<Ray> {
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix64(seed);
     let radius = b.extent().length();
     (0..n)
         .map(|i| {
@@ -99,14 +67,14 @@ fn random_rays(
 }
 
 /// A uniformly random point of a random triangle of the list.
-fn on_triangles(prims: &[Primitive]) -> impl FnMut(&mut Rng) -> Vec3 + '_ {
+fn on_triangles(prims: &[Primitive]) -> impl FnMut(&mut SplitMix64) -> Vec3 + '_ {
     move |rng| {
         let i = (rng.next_u64() % prims.len() as u64) as usize;
         let Shape::Triangle(t) = &prims[i].shape else {
             unreachable!("triangles only")
         };
         // Folding the unit square onto the triangle keeps it uniform.
-        let (mut u, mut v) = (rng.f32(), rng.f32());
+        let (mut u, mut v) = (rng.next_f32(), rng.next_f32());
         if u + v > 1.0 {
             (u, v) = (1.0 - u, 1.0 - v);
         }
@@ -392,7 +360,7 @@ fn camel_agrees_with_brute_force() {
 /// each) in [−10, 10]³: they overlap now and then, so rays also cross from
 /// one into another.
 fn random_quadrics(n: usize, seed: u64, ellipsoids: bool) -> Vec<Primitive> {
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix64(seed);
     (0..n)
         .map(|_| {
             let c = Vec3::new(
@@ -425,10 +393,10 @@ fn random_quadrics(n: usize, seed: u64, ellipsoids: bool) -> Vec<Primitive> {
 
 /// A random point inside a random one of the quadrics (a point of the
 /// unit ball mapped by the shape's transform).
-fn in_quadrics(prims: &[Primitive]) -> impl FnMut(&mut Rng) -> Vec3 + '_ {
+fn in_quadrics(prims: &[Primitive]) -> impl FnMut(&mut SplitMix64) -> Vec3 + '_ {
     move |rng| {
         let i = (rng.next_u64() % prims.len() as u64) as usize;
-        let p = rng.unit_vector() * rng.f32().cbrt();
+        let p = rng.unit_vector() * rng.next_f32().cbrt();
         match &prims[i].shape {
             Shape::Sphere(s) => s.centre + s.radius * p,
             Shape::Ellipsoid(e) => e.centre + e.from_unit() * p,
@@ -497,7 +465,7 @@ fn ellipsoids_agree_with_brute_force() {
 fn rays_from_inside_report_the_exit() {
     for ellipsoids in [false, true] {
         let prims = random_quadrics(50, 3, ellipsoids);
-        let mut rng = Rng(5);
+        let mut rng = SplitMix64(5);
         for (i, p) in prims.iter().enumerate() {
             let accel = EmbreeAccel::build(&prims, &[i as u32], EmbreeConfig::default()).unwrap();
             for _ in 0..200 {
@@ -530,7 +498,7 @@ fn rays_from_inside_report_the_exit() {
 fn mixed_scene_with_finite_t_max() {
     let mut prims = random_quadrics(100, 21, false);
     prims.extend(random_quadrics(100, 22, true));
-    let mut rng = Rng(23);
+    let mut rng = SplitMix64(23);
     for _ in 0..300 {
         let a = Vec3::new(
             rng.range(-10.0, 10.0),
