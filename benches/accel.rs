@@ -16,19 +16,27 @@
 //! - shadow: from each primary hit (mesh or floor) towards the scene's first
 //!   light, any-hit, stopping short of the light;
 //! - diffuse: from each primary hit, one cosine-distributed direction about
-//!   the shading normal, closest hit.
+//!   the shading normal, closest hit;
+//! - random: as many rays as pixels, from a sphere around the mesh through
+//!   uniform points of its bounds, closest hit (the least coherent set).
 //!
-//! Run with `make bench` or `cargo bench --bench accel`.
+//! The sets are `raylab::accel::workload`'s, shared with the `accel_speed`
+//! study (`analysis/embree-speed.toml`).
+//!
+//! Every row also gives its throughput for each set relative to Embree 4's
+//! (`embree`: high build quality, robust, `rtcIntersect1`/`rtcOccluded1` on
+//! the same rays, same thread), the issue's target being ≥ 0.5×.
+//!
+//! Run with `make bench` or `cargo bench --bench accel`. To measure a subset,
+//! `RAYLAB_BENCH_ACCELS=bvh:aabb:sah,embree` picks accelerators (names as in
+//! `--accel`) and `RAYLAB_BENCH_MESHES=camel` picks meshes by name prefix.
 
-use raylab::accel::{Accel, AccelKind, Accelerator, BvhConfig};
-use raylab::integrator::whitted::offset_origin;
+use raylab::accel::workload::{trace_serial, RayKind, Segment, Workload};
+use raylab::accel::{AccelKind, Accelerator, BvhConfig};
 use raylab::integrator::{render, Whitted};
 use raylab::io::scene_file::{load_scene, Overrides};
-use raylab::math::{Ray, Vec3};
 use raylab::scene::Scene;
-use raylab::shape::PreparedRay;
 use raylab::stats::{Counters, NoStats, Stats};
-use std::f32::consts::PI;
 use std::path::Path;
 use std::time::Instant;
 
@@ -38,6 +46,9 @@ const HEIGHT: u32 = 300;
 /// Brute force tests every triangle for every ray (~2·10⁴ per ray on the
 /// camel): one ray in this many keeps it to about a second per ray set.
 const BRUTE_STRIDE: usize = 16;
+/// The Embree configuration every row is compared with: the one the issue's
+/// reference figures were measured with.
+const EMBREE: &str = "embree:high+robust";
 
 /// Median wall-clock seconds of `f` over `REPEATS` runs after one warm-up.
 fn median_seconds(mut f: impl FnMut()) -> f64 {
@@ -53,98 +64,12 @@ fn median_seconds(mut f: impl FnMut()) -> f64 {
     t[REPEATS / 2]
 }
 
-/// One segment to trace: a prepared ray and its far limit.
-#[derive(Clone, Copy)]
-struct Segment {
-    ray: PreparedRay,
-    t_max: f32,
-}
-
-struct RaySets {
-    primary: Vec<Segment>,
-    shadow: Vec<Segment>,
-    diffuse: Vec<Segment>,
-}
-
-/// A counter-based hash to [0, 1) (SplitMix64 finaliser, Steele, Lea and
-/// Flood 2014): the same rays on every run without a generator crate.
-fn unit(mut z: u64) -> f32 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 40) as f32 / (1u64 << 24) as f32
-}
-
-/// A cosine-distributed unit direction about `n`: Malley's method (uniform
-/// point on the unit disc lifted to the hemisphere, pbrt-v4 §A.5.3), in the
-/// orthonormal basis of Duff et al., "Building an Orthonormal Basis,
-/// Revisited" (JCGT 2017).
-fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-    let bt = Vec3::new(b, sign + n.y * n.y * a, -n.y);
-    let (r, phi) = (u1.sqrt(), 2.0 * PI * u2);
-    let z = (1.0 - u1).max(0.0).sqrt();
-    (r * phi.cos() * t + r * phi.sin() * bt + z * n).normalize()
-}
-
-fn ray_sets(scene: &Scene) -> RaySets {
-    let cam = &scene.camera;
-    let light = scene.lights.first().map(|l| l.position);
-    let far = scene.settings.max_distance;
-    let mut sets = RaySets {
-        primary: Vec::new(),
-        shadow: Vec::new(),
-        diffuse: Vec::new(),
-    };
-    for py in 0..cam.height {
-        for px in 0..cam.width {
-            let ray = cam.generate_ray(px as f32 + 0.5, py as f32 + 0.5);
-            sets.primary.push(Segment {
-                ray: PreparedRay::new(ray),
-                t_max: far,
-            });
-            let Some(hit) = scene.intersect(&ray, far, &mut NoStats) else {
-                continue;
-            };
-            if let Some(lp) = light {
-                let l = (lp - hit.point).normalize();
-                let o = offset_origin(&hit, l);
-                let d = lp - o;
-                let len = d.length();
-                sets.shadow.push(Segment {
-                    ray: PreparedRay::new(Ray::new(o, d / len)),
-                    t_max: len * (1.0 - 1e-4),
-                });
-            }
-            let i = u64::from(py * cam.width + px);
-            let dir = cosine_direction(hit.shading_normal, unit(2 * i), unit(2 * i + 1));
-            sets.diffuse.push(Segment {
-                ray: PreparedRay::new(Ray::new(offset_origin(&hit, dir), dir)),
-                t_max: far,
-            });
-        }
-    }
-    sets
-}
-
-/// Mrays/s of closest-hit (`any = false`) or any-hit queries over `rays`.
+/// Mrays/s of closest-hit (`any = false`) or any-hit queries over `rays`,
+/// single thread, counting into `S`.
 fn throughput<S: Stats + Default>(scene: &Scene, rays: &[Segment], any: bool) -> f64 {
-    let (a, p) = (&scene.accel, &scene.prims[..]);
     let secs = median_seconds(|| {
         let mut s = S::default();
-        let mut hits = 0u32;
-        for r in rays {
-            let hit = if any {
-                a.occluded(p, &r.ray, r.t_max, &mut s)
-            } else {
-                a.intersect(p, &r.ray, r.t_max, &mut s).is_some()
-            };
-            hits += u32::from(hit);
-        }
+        let hits = trace_serial(&scene.accel, scene, rays, any, &mut s);
         std::hint::black_box((hits, s));
     });
     rays.len() as f64 / secs / 1e6
@@ -168,7 +93,14 @@ fn main() {
         println!("benchmark built; run it with `cargo bench` (make bench)");
         return;
     }
-    let meshes = [
+    let list = |var: &str| {
+        std::env::var(var)
+            .ok()
+            .map(|v| v.split(',').map(str::to_string).collect::<Vec<_>>())
+    };
+    let only_accels = list("RAYLAB_BENCH_ACCELS");
+    let only_meshes = list("RAYLAB_BENCH_MESHES");
+    let mut meshes = vec![
         ("camel (19 536 tris)", "data/scenes/camel.toml"),
         (
             "ChineseDragon-10kv (19 994)",
@@ -176,10 +108,13 @@ fn main() {
         ),
         ("bunny00 (75 408)", "data/scenes/bunny.toml"),
     ];
+    if let Some(only) = &only_meshes {
+        meshes.retain(|(name, _)| only.iter().any(|m| name.starts_with(m.as_str())));
+    }
     let o = Overrides {
         width: Some(WIDTH),
         height: Some(HEIGHT),
-        accel: Some(AccelKind::Brute),
+        accel: Some(AccelKind::Bvh(BvhConfig::default())),
         ..Default::default()
     };
     println!("Single thread, {WIDTH}×{HEIGHT} camera rays, medians of {REPEATS} runs; Mrays/s.");
@@ -192,71 +127,75 @@ fn main() {
                 continue;
             }
         };
-        let sets = ray_sets(&scene);
+        let sets = Workload::from_scene(&scene, (WIDTH * HEIGHT) as usize, 1);
         println!(
-            "\n{name}: {} primary, {} shadow, {} diffuse rays{}",
-            sets.primary.len(),
-            sets.shadow.len(),
-            sets.diffuse.len(),
+            "\n{name}: {}{}",
+            RayKind::ALL
+                .map(|k| format!("{} {k}", sets.get(k).len()))
+                .join(", "),
             if i == 0 {
-                format!(" (brute: every {BRUTE_STRIDE}th)")
+                format!(" rays (brute: every {BRUTE_STRIDE}th)")
             } else {
-                String::new()
+                " rays".to_string()
             }
         );
         println!(
-            "  {:<26} {:>9} {:>9} {:>9} {:>10} {:>9}",
-            "accelerator", "primary", "shadow", "diffuse", "build ms", "vs sah"
+            "  {:<20} {:>8} {:>8} {:>8} {:>8} {:>9} {:>7}  vs Embree (p / s / d / r)",
+            "accelerator", "primary", "shadow", "diffuse", "random", "build ms", "vs sah"
         );
         let bounded: Vec<u32> = (0..scene.prims.len() as u32)
             .filter(|&i| scene.prims[i as usize].bounds().is_some())
             .collect();
         let mut kinds: Vec<AccelKind> = BvhConfig::all().map(AccelKind::Bvh).collect();
+        kinds.push(AccelKind::Bvh4);
         if i == 0 {
             kinds.insert(0, AccelKind::Brute);
         }
+        #[cfg(feature = "embree")]
+        kinds.push(EMBREE.parse().expect("a valid Embree name"));
+        if let Some(only) = &only_accels {
+            kinds.retain(|k| only.contains(&k.to_string()));
+        }
         let mut sah_primary = None;
+        let mut embree = [f64::NAN; 4];
         let mut rows = Vec::new();
         for kind in kinds {
             let build = median_seconds(|| {
                 std::hint::black_box(Accelerator::build(kind, &scene.prims, bounded.clone())).ok();
             });
             if let Err(e) = scene.set_accel(kind) {
-                println!("  {kind:<26} skipped: {e}");
+                println!("  {kind:<20} skipped: {e}");
                 continue;
             }
-            let (p, s, d) = if kind == AccelKind::Brute {
-                (
-                    strided(&sets.primary),
-                    strided(&sets.shadow),
-                    strided(&sets.diffuse),
-                )
-            } else {
-                (
-                    sets.primary.clone(),
-                    sets.shadow.clone(),
-                    sets.diffuse.clone(),
-                )
-            };
-            let tp = throughput::<NoStats>(&scene, &p, false);
-            let ts = throughput::<NoStats>(&scene, &s, true);
-            let td = throughput::<NoStats>(&scene, &d, false);
-            if kind.to_string() == "bvh:aabb:sah" {
-                sah_primary = Some(tp);
-                let tc = throughput::<Counters>(&scene, &p, false);
-                overhead.push((name.to_string(), tp, tc));
+            let tput = RayKind::ALL.map(|k| {
+                let rays = sets.get(k);
+                if kind == AccelKind::Brute {
+                    throughput::<NoStats>(&scene, &strided(rays), k.any_hit())
+                } else {
+                    throughput::<NoStats>(&scene, rays, k.any_hit())
+                }
+            });
+            if kind.to_string() == EMBREE {
+                embree = tput;
             }
-            rows.push((kind, tp, ts, td, build));
+            if kind.to_string() == "bvh:aabb:sah" {
+                sah_primary = Some(tput[0]);
+                let tc = throughput::<Counters>(&scene, &sets.primary, false);
+                overhead.push((name.to_string(), tput[0], tc));
+            }
+            rows.push((kind, tput, build));
         }
-        for (kind, tp, ts, td, build) in rows {
-            let rel = sah_primary.map_or(f64::NAN, |s| tp / s);
+        for (kind, tput, build) in rows {
+            let rel = sah_primary.map_or(f64::NAN, |s| tput[0] / s);
             println!(
-                "  {:<26} {:>9} {:>9} {:>9} {:>10.2} {rel:>8.4}×",
+                "  {:<20} {} {:>9.2} {rel:>6.3}×  {}",
                 kind.to_string(),
-                sig4(tp),
-                sig4(ts),
-                sig4(td),
-                build * 1e3
+                tput.map(|t| format!("{:>8}", sig4(t))).join(" "),
+                build * 1e3,
+                (0..4)
+                    .map(|k| format!("{:.3}×", tput[k] / embree[k]))
+                    .collect::<Vec<_>>()
+                    .join(" "),
             );
         }
     }

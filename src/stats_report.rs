@@ -95,7 +95,8 @@ pub fn percentile(sorted: &[u64], p: f64) -> Option<u64> {
 
 /// The accelerators `raylab stats` compares when none is named: brute
 /// force for small scenes, then the box BVH with the SAH builder (the
-/// production baseline) and S3's sphere and ellipsoid hierarchies.
+/// production baseline), its 4-wide collapse, and S3's sphere and ellipsoid
+/// hierarchies.
 pub fn default_accels(bounded_prims: usize) -> Vec<AccelKind> {
     let mut v = Vec::new();
     if bounded_prims < BRUTE_DEFAULT_LIMIT {
@@ -108,6 +109,7 @@ pub fn default_accels(bounded_prims: usize) -> Vec<AccelKind> {
             v.push(AccelKind::Bvh(c));
         }
     }
+    v.insert(v.len() - 2, AccelKind::Bvh4);
     v
 }
 

@@ -19,7 +19,7 @@
 use raylab::accel::bvh::{
     BoundingVolume, Builder, BvhConfig, Fit, Node, VolumeKind, DEFAULT_LEAF_SIZE, MAX_DEPTH,
 };
-use raylab::accel::{Accel, AccelKind, Accelerator, Brute, Bvh};
+use raylab::accel::{Accel, AccelKind, Accelerator, Brute, Bvh, Bvh4};
 use raylab::io::read_mesh;
 use raylab::math::{Ray, Vec3};
 use raylab::shape::{Bounds, PreparedRay, Primitive, Shape, Triangle};
@@ -259,18 +259,36 @@ fn agree_with_brute_force(relative: &str, seed: u64) {
         let accel = Accelerator::build(AccelKind::Bvh(config), &prims, all_ids(&prims)).unwrap();
         assert_eq!(accel.kind(), AccelKind::Bvh(config));
         check_accelerator_structure(&accel, &prims, &config);
-        let stats = accel.bvh_stats(&prims).expect("a BVH");
+        check_against_brute_force(&accel, &prims, &rays, &truth);
+    }
+    let wide = Accelerator::build(AccelKind::Bvh4, &prims, all_ids(&prims)).unwrap();
+    assert_eq!(wide.kind(), AccelKind::Bvh4);
+    check_against_brute_force(&wide, &prims, &rays, &truth);
+}
 
+/// Every closest hit of `accel` is brute force's (the same triangle at the
+/// bit-identical t, or another triangle at the same t within 10⁻⁶ relative:
+/// a tie at a shared edge or a duplicate face), any-hit agrees with
+/// closest-hit, and a line of timings and per-ray counts is printed.
+fn check_against_brute_force(
+    accel: &Accelerator,
+    prims: &[Primitive],
+    rays: &[PreparedRay],
+    truth: &[Option<(u32, f32)>],
+) {
+    let config = accel.kind();
+    let stats = accel.bvh_stats(prims).unwrap_or_default();
+    {
         // Timed pass, one thread, no counting.
         let start = Instant::now();
         let found: Vec<_> = rays
             .iter()
-            .map(|r| accel.intersect(&prims, r, f32::INFINITY, &mut NoStats))
+            .map(|r| accel.intersect(prims, r, f32::INFINITY, &mut NoStats))
             .collect();
         let seconds = start.elapsed().as_secs_f64();
 
         let mut ties = 0;
-        for (i, (got, want)) in found.iter().zip(&truth).enumerate() {
+        for (i, (got, want)) in found.iter().zip(truth).enumerate() {
             let r = &rays[i];
             match (got, want) {
                 (None, None) => {}
@@ -302,13 +320,13 @@ fn agree_with_brute_force(relative: &str, seed: u64) {
         // 10⁻⁵ margin is because the triangle test compares t against t_max
         // in scaled form (t·det against t_max·det), whose rounding (~ε) can
         // move a hit at exactly t_max across the boundary.
-        let occlusion_ok = rays.par_iter().zip(&truth).all(|(r, want)| {
+        let occlusion_ok = rays.par_iter().zip(truth).all(|(r, want)| {
             let mut s = NoStats;
-            let blocked = accel.occluded(&prims, r, f32::INFINITY, &mut s);
+            let blocked = accel.occluded(prims, r, f32::INFINITY, &mut s);
             blocked == want.is_some()
                 && want.map_or(true, |(_, t)| {
-                    !accel.occluded(&prims, r, t * (1.0 - 1e-5), &mut s)
-                        && accel.occluded(&prims, r, t * (1.0 + 1e-5), &mut s)
+                    !accel.occluded(prims, r, t * (1.0 - 1e-5), &mut s)
+                        && accel.occluded(prims, r, t * (1.0 + 1e-5), &mut s)
                 })
         });
         assert!(occlusion_ok, "{config}: occluded disagrees with intersect");
@@ -318,7 +336,7 @@ fn agree_with_brute_force(relative: &str, seed: u64) {
         let mut c = Counters::default();
         let sample: Vec<_> = rays.iter().step_by(10).collect();
         for r in &sample {
-            accel.intersect(&prims, r, f32::INFINITY, &mut c);
+            accel.intersect(prims, r, f32::INFINITY, &mut c);
         }
         let per_ray = |n: u64| n as f64 / sample.len() as f64;
         println!(
@@ -465,6 +483,30 @@ fn test_counts_on_a_hand_built_scene() {
                 assert_eq!(blocked, hit.is_some(), "{config}, case {k}");
             }
         }
+    }
+    // The 4-wide tree of the same two leaves is one wide node with two
+    // children: the root box test, then the same visits and tests as the
+    // binary box tree.
+    let options = BvhConfig {
+        volume: VolumeKind::Aabb,
+        builder: Builder::Sah,
+        leaf_size: 1,
+    }
+    .options();
+    let wide = Bvh4::build(&prims, vec![0, 1], options);
+    assert_eq!(wide.nodes().len(), 1);
+    for (k, case) in cases.iter().enumerate() {
+        let ray = PreparedRay::new(Ray::new(case.origin, case.dir));
+        let mut c = Counters::default();
+        let hit = wide.intersect(&prims, &ray, case.t_max, &mut c);
+        let got = (
+            hit.map(|(id, _)| id),
+            c.nodes_visited,
+            c.box_tests,
+            c.triangle_tests,
+        );
+        assert_eq!(got, case.expect, "bvh4, case {k}");
+        assert_eq!(c.bounding_volume_tests(), c.box_tests);
     }
 }
 

@@ -584,3 +584,47 @@ fn diff_reports_metrics_and_errors() {
     assert!(err.contains("nope.png"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// The shipped Embree speed manifest plans its runs, and its quick form
+/// runs: both sides traced the same rays (hit/miss agreement up to the few
+/// rays rounding decides at shared edges: at most 1 in 10³), every
+/// throughput and ratio is a positive number, and the counts of our side's
+/// work are there.
+#[cfg(feature = "embree")]
+#[test]
+fn embree_speed_manifest_measures_both_sides_on_the_same_rays() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("analysis/embree-speed.toml");
+    let m = load_manifest(&path).unwrap();
+    assert_eq!(m.plan().unwrap().runs.len(), 5 * 2);
+    let dir = tempfile::tempdir().unwrap();
+    let opts = Options {
+        quick: true,
+        ..quiet(dir.path())
+    };
+    let report = run_experiment(&path, &opts).unwrap();
+    assert_eq!(report.runs_done, 2);
+    assert_eq!(report.figures.len(), m.figures.len());
+    let mut rows = csv::Reader::from_path(dir.path().join("data.csv")).unwrap();
+    let headers = rows.headers().unwrap().clone();
+    let mut n = 0;
+    for row in rows.records() {
+        let row = row.unwrap();
+        let get = |name: &str| -> f64 {
+            let i = headers.iter().position(|h| h == name).unwrap();
+            row[i].parse().unwrap()
+        };
+        assert_eq!(get("triangles"), 19536.0);
+        for kind in ["primary", "shadow", "diffuse", "random"] {
+            let rays = get(&format!("{kind}_rays"));
+            assert!(rays > 1000.0, "{kind}: {rays} rays");
+            assert!(get(&format!("{kind}_hit_disagree")) <= rays * 1e-3);
+            for col in ["ours_{}_mrays_s", "ref_{}_mrays_s", "{}_ratio"] {
+                let v = get(&col.replace("{}", kind));
+                assert!(v.is_finite() && v > 0.0, "{col} {kind}: {v}");
+            }
+            assert!(get(&format!("{kind}_volume_tests_per_ray")) >= 1.0);
+        }
+        n += 1;
+    }
+    assert_eq!(n, 2);
+}

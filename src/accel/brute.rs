@@ -18,8 +18,8 @@ impl Brute {
 }
 
 /// Closest hit over a list of primitive indices, shrinking `t_max` as hits
-/// are found. Shared by every accelerator's leaves and by the scene's list
-/// of unbounded primitives.
+/// are found. Shared by brute force and by the scene's list of unbounded
+/// primitives.
 #[inline]
 pub fn closest_in<S: Stats>(
     prims: &[Primitive],
@@ -29,13 +29,13 @@ pub fn closest_in<S: Stats>(
     best: &mut Option<(u32, PrimHit)>,
     stats: &mut S,
 ) {
-    for &id in ids {
-        if let Some(h) = prims[id as usize].intersect(ray, *t_max, stats) {
-            stats.primitive_hit();
-            *t_max = h.t;
-            *best = Some((id, h));
-        }
-    }
+    closest_of(
+        ids.iter().map(|&id| (id, &prims[id as usize])),
+        ray,
+        t_max,
+        best,
+        stats,
+    );
 }
 
 /// Whether any primitive in the list is hit in (0, t_max).
@@ -47,13 +47,41 @@ pub fn any_in<S: Stats>(
     t_max: f32,
     stats: &mut S,
 ) -> bool {
-    for &id in ids {
-        if prims[id as usize].intersect(ray, t_max, stats).is_some() {
+    any_of(ids.iter().map(|&id| &prims[id as usize]), ray, t_max, stats)
+}
+
+/// [`closest_in`] over (index, primitive) pairs: the BVH's leaves pass
+/// their own copies of the primitives, stored in leaf order.
+#[inline]
+pub fn closest_of<'a, S: Stats>(
+    candidates: impl Iterator<Item = (u32, &'a Primitive)>,
+    ray: &PreparedRay,
+    t_max: &mut f32,
+    best: &mut Option<(u32, PrimHit)>,
+    stats: &mut S,
+) {
+    for (id, p) in candidates {
+        if let Some(h) = p.intersect(ray, *t_max, stats) {
             stats.primitive_hit();
-            return true;
+            *t_max = h.t;
+            *best = Some((id, h));
         }
     }
-    false
+}
+
+/// [`any_in`] over primitives.
+#[inline]
+pub fn any_of<'a, S: Stats>(
+    mut candidates: impl Iterator<Item = &'a Primitive>,
+    ray: &PreparedRay,
+    t_max: f32,
+    stats: &mut S,
+) -> bool {
+    let hit = candidates.any(|p| p.intersect(ray, t_max, stats).is_some());
+    if hit {
+        stats.primitive_hit();
+    }
+    hit
 }
 
 impl Accel for Brute {

@@ -8,9 +8,10 @@ pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
+pub mod workload;
 
 pub use brute::Brute;
-pub use bvh::{Bvh, BvhConfig, BvhStats};
+pub use bvh::{Bvh, Bvh4, BvhConfig, BvhStats};
 #[cfg(feature = "embree")]
 pub use embree::{EmbreeAccel, EmbreeConfig};
 
@@ -53,6 +54,9 @@ pub enum AccelKind {
     Brute,
     /// A bounding volume hierarchy (`bvh`, `bvh:<volume>:<builder>`, …).
     Bvh(BvhConfig),
+    /// The 4-wide box BVH (`bvh4`): the default binary SAH box tree
+    /// collapsed to four children per node, tested 4-wide.
+    Bvh4,
     /// Embree 4 (`embree`, `embree:low|medium|high`, `…+robust`).
     #[cfg(feature = "embree")]
     Embree(EmbreeConfig),
@@ -63,6 +67,7 @@ impl FromStr for AccelKind {
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
             "brute" => Ok(AccelKind::Brute),
+            "bvh4" => Ok(AccelKind::Bvh4),
             _ if s == "bvh" || s.starts_with("bvh:") => s.parse().map(AccelKind::Bvh),
             #[cfg(feature = "embree")]
             _ if s.starts_with("embree") => s.parse().map(AccelKind::Embree),
@@ -71,7 +76,7 @@ impl FromStr for AccelKind {
                 "accelerator `{s}` needs Embree, but this raylab was built without the `embree` feature"
             )),
             _ => Err(format!(
-                "unknown accelerator `{s}` (expected `brute`, {} or \
+                "unknown accelerator `{s}` (expected `brute`, {}, `bvh4` or \
                  `embree[:low|medium|high][+robust]`)",
                 bvh::BVH_GRAMMAR
             )),
@@ -84,6 +89,7 @@ impl fmt::Display for AccelKind {
         match self {
             AccelKind::Brute => write!(f, "brute"),
             AccelKind::Bvh(c) => write!(f, "{c}"),
+            AccelKind::Bvh4 => write!(f, "bvh4"),
             #[cfg(feature = "embree")]
             AccelKind::Embree(c) => write!(f, "{c}"),
         }
@@ -100,6 +106,8 @@ pub enum Accelerator {
     BvhSphere(Bvh<BoundingSphere>, BvhConfig),
     /// A BVH of axis-aligned ellipsoids (either fit).
     BvhEllipsoid(Bvh<BoundingEllipsoid>, BvhConfig),
+    /// The 4-wide box BVH.
+    Bvh4(Bvh4),
     /// Embree 4's own BVH over Embree's own primitives.
     #[cfg(feature = "embree")]
     Embree(EmbreeAccel),
@@ -124,6 +132,9 @@ impl Accelerator {
                     }
                 }
             }
+            AccelKind::Bvh4 => {
+                Accelerator::Bvh4(Bvh4::build(prims, bounded, BvhConfig::default().options()))
+            }
             #[cfg(feature = "embree")]
             AccelKind::Embree(c) => Accelerator::Embree(
                 EmbreeAccel::build(prims, &bounded, c).map_err(|e| e.to_string())?,
@@ -138,6 +149,7 @@ impl Accelerator {
             Accelerator::BvhAabb(b, _) => Some(b.stats(prims)),
             Accelerator::BvhSphere(b, _) => Some(b.stats(prims)),
             Accelerator::BvhEllipsoid(b, _) => Some(b.stats(prims)),
+            Accelerator::Bvh4(_) => None,
             #[cfg(feature = "embree")]
             Accelerator::Embree(_) => None,
         }
@@ -149,6 +161,7 @@ impl Accelerator {
             Accelerator::BvhAabb(_, c)
             | Accelerator::BvhSphere(_, c)
             | Accelerator::BvhEllipsoid(_, c) => AccelKind::Bvh(*c),
+            Accelerator::Bvh4(_) => AccelKind::Bvh4,
             #[cfg(feature = "embree")]
             Accelerator::Embree(a) => AccelKind::Embree(a.config()),
         }
@@ -169,6 +182,7 @@ impl Accel for Accelerator {
             Accelerator::BvhAabb(a, _) => a.intersect(prims, ray, t_max, stats),
             Accelerator::BvhSphere(a, _) => a.intersect(prims, ray, t_max, stats),
             Accelerator::BvhEllipsoid(a, _) => a.intersect(prims, ray, t_max, stats),
+            Accelerator::Bvh4(a) => a.intersect(prims, ray, t_max, stats),
             #[cfg(feature = "embree")]
             Accelerator::Embree(a) => a.intersect(prims, ray, t_max, stats),
         }
@@ -187,6 +201,7 @@ impl Accel for Accelerator {
             Accelerator::BvhAabb(a, _) => a.occluded(prims, ray, t_max, stats),
             Accelerator::BvhSphere(a, _) => a.occluded(prims, ray, t_max, stats),
             Accelerator::BvhEllipsoid(a, _) => a.occluded(prims, ray, t_max, stats),
+            Accelerator::Bvh4(a) => a.occluded(prims, ray, t_max, stats),
             #[cfg(feature = "embree")]
             Accelerator::Embree(a) => a.occluded(prims, ray, t_max, stats),
         }

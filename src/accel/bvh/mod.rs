@@ -9,8 +9,10 @@
 pub mod build;
 pub mod traverse;
 pub mod volume;
+pub mod wide;
 
 pub use volume::{Aabb, BoundingEllipsoid, BoundingSphere, BoundingVolume};
+pub use wide::Bvh4;
 
 use super::Accel;
 use crate::shape::{Bounds, PreparedRay, PrimHit, Primitive};
@@ -52,6 +54,41 @@ impl<V> Node<V> {
     pub fn is_leaf(&self) -> bool {
         self.count > 0
     }
+}
+
+/// A node as the traversal reads it: for an interior node, both children's
+/// volumes (in the volume's [`BoundingVolume::Pair`] layout) with the index
+/// of the first child, so that one visit reads one record (64 bytes for
+/// boxes: one cache line) and tests both children together. Built from
+/// [`Node`]s after the build, index for index; a leaf's pair is unused.
+/// Aligned to 64 bytes so that a record never straddles two cache lines.
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug)]
+pub struct Packed<V: BoundingVolume> {
+    pub children: V::Pair,
+    /// As [`Node::first`].
+    pub first: u32,
+    /// As [`Node::count`].
+    pub count: u32,
+}
+
+fn pack<V: BoundingVolume>(nodes: &[Node<V>]) -> Vec<Packed<V>> {
+    nodes
+        .iter()
+        .map(|n| {
+            let (l, r) = if n.is_leaf() {
+                (&n.volume, &n.volume)
+            } else {
+                let f = n.first as usize;
+                (&nodes[f].volume, &nodes[f + 1].volume)
+            };
+            Packed {
+                children: V::pair(l, r),
+                first: n.first,
+                count: n.count,
+            }
+        })
+        .collect()
 }
 
 /// How a node's volume is fitted to its primitives.
@@ -113,9 +150,16 @@ pub const DEFAULT_LEAF_SIZE: u32 = 4;
 
 /// A bounding volume hierarchy over bounded primitives.
 #[derive(Clone, Debug)]
-pub struct Bvh<V> {
+pub struct Bvh<V: BoundingVolume> {
     nodes: Vec<Node<V>>,
+    /// `nodes` in the traversal's layout.
+    packed: Vec<Packed<V>>,
     indices: Vec<u32>,
+    /// Copies of the primitives in `indices` order, so that a leaf reads
+    /// its primitives from one contiguous run rather than through the
+    /// index array (one memory access instead of two dependent ones, for
+    /// the price of a second copy of the primitives).
+    leaf_prims: Vec<Primitive>,
     options: BuildOptions,
     build_seconds: f64,
 }
@@ -126,9 +170,13 @@ impl<V: BoundingVolume> Bvh<V> {
     pub fn build(prims: &[Primitive], ids: Vec<u32>, options: BuildOptions) -> Self {
         let start = Instant::now();
         let (nodes, indices) = build::build(prims, ids, &options);
+        let packed = pack(&nodes);
+        let leaf_prims = indices.iter().map(|&i| prims[i as usize]).collect();
         Bvh {
             nodes,
+            packed,
             indices,
+            leaf_prims,
             options,
             build_seconds: start.elapsed().as_secs_f64(),
         }
@@ -138,6 +186,12 @@ impl<V: BoundingVolume> Bvh<V> {
     /// primitives).
     pub fn nodes(&self) -> &[Node<V>] {
         &self.nodes
+    }
+
+    /// The node array, the index array and the leaf-ordered primitives,
+    /// for the 4-wide tree built from this one.
+    pub(super) fn into_parts(self) -> (Vec<Node<V>>, Vec<u32>, Vec<Primitive>) {
+        (self.nodes, self.indices, self.leaf_prims)
     }
 
     /// Primitive indices (into the scene's list) in leaf order.
@@ -154,7 +208,9 @@ impl<V: BoundingVolume> Bvh<V> {
         let mut s = BvhStats {
             nodes: self.nodes.len(),
             memory_bytes: std::mem::size_of_val(self.nodes.as_slice())
-                + std::mem::size_of_val(self.indices.as_slice()),
+                + std::mem::size_of_val(self.packed.as_slice())
+                + std::mem::size_of_val(self.indices.as_slice())
+                + std::mem::size_of_val(self.leaf_prims.as_slice()),
             build_seconds: self.build_seconds,
             ..BvhStats::default()
         };
@@ -222,25 +278,25 @@ impl<V: BoundingVolume> Accel for Bvh<V> {
     #[inline]
     fn intersect<S: Stats>(
         &self,
-        prims: &[Primitive],
+        _prims: &[Primitive],
         ray: &PreparedRay,
         t_max: f32,
         stats: &mut S,
     ) -> Option<(u32, PrimHit)> {
         let mut best = None;
-        self.traverse::<S, false>(prims, ray, t_max, &mut best, stats);
+        self.traverse::<S, false>(ray, t_max, &mut best, stats);
         best
     }
 
     #[inline]
     fn occluded<S: Stats>(
         &self,
-        prims: &[Primitive],
+        _prims: &[Primitive],
         ray: &PreparedRay,
         t_max: f32,
         stats: &mut S,
     ) -> bool {
-        self.traverse::<S, true>(prims, ray, t_max, &mut None, stats)
+        self.traverse::<S, true>(ray, t_max, &mut None, stats)
     }
 }
 

@@ -2,7 +2,8 @@
 //! closest-hit and any-hit queries and for every bounding volume.
 //!
 //! The root's volume is tested first; after that, visiting an interior node
-//! tests the volumes of both its children, descends into the nearer one
+//! tests the volumes of both its children (together, from the parent's
+//! [`super::Packed`] record), descends into the nearer one
 //! (smaller entry distance) and pushes the other with its entry distance. A
 //! popped node whose entry distance exceeds the closest hit found since it
 //! was pushed is dropped without being visited. A leaf tests its primitives
@@ -15,8 +16,8 @@
 
 use super::volume::BoundingVolume;
 use super::{Bvh, MAX_DEPTH};
-use crate::accel::brute::{any_in, closest_in};
-use crate::shape::{PreparedRay, PrimHit, Primitive};
+use crate::accel::brute::{any_of, closest_of};
+use crate::shape::{PreparedRay, PrimHit};
 use crate::stats::Stats;
 
 impl<V: BoundingVolume> Bvh<V> {
@@ -26,7 +27,6 @@ impl<V: BoundingVolume> Bvh<V> {
     #[inline]
     pub(super) fn traverse<S: Stats, const ANY_HIT: bool>(
         &self,
-        prims: &[Primitive],
         ray: &PreparedRay,
         mut t_max: f32,
         best: &mut Option<(u32, PrimHit)>,
@@ -45,21 +45,22 @@ impl<V: BoundingVolume> Bvh<V> {
         let mut node = 0usize;
         loop {
             stats.node_visit();
-            let n = &self.nodes[node];
+            let n = &self.packed[node];
             if n.count > 0 {
-                let ids = &self.indices[n.first as usize..(n.first + n.count) as usize];
+                let range = n.first as usize..(n.first + n.count) as usize;
+                let local = &self.leaf_prims[range.clone()];
                 if ANY_HIT {
-                    if any_in(prims, ids, ray, t_max, stats) {
+                    if any_of(local.iter(), ray, t_max, stats) {
                         return true;
                     }
                 } else {
-                    closest_in(prims, ids, ray, &mut t_max, best, stats);
+                    let ids = self.indices[range].iter().copied();
+                    closest_of(ids.zip(local), ray, &mut t_max, best, stats);
                 }
             } else {
                 let left = n.first as usize;
                 let right = left + 1;
-                let hit_left = self.nodes[left].volume.hit(ray, t_max, stats);
-                let hit_right = self.nodes[right].volume.hit(ray, t_max, stats);
+                let [hit_left, hit_right] = V::hit_pair(&n.children, ray, t_max, stats);
                 match (hit_left, hit_right) {
                     (Some(tl), Some(tr)) => {
                         let (near, far, t_far) = if tl <= tr {

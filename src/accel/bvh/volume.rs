@@ -15,6 +15,7 @@ use crate::math::{Ray, Vec3};
 use crate::shape::sphere::Sphere;
 use crate::shape::{Bounds, PreparedRay};
 use crate::stats::Stats;
+use glam::{Vec4, Vec4Swizzles};
 use std::f32::consts::PI;
 use std::fmt;
 
@@ -36,7 +37,8 @@ const QUADRIC_MARGIN: f32 = 32.0 * UNIT_ROUNDOFF;
 /// 2013, §3): scaling the exit distance by 1 + 2γ₃, γₙ = nε/(1 − nε), makes
 /// the computed interval overlap the exact one whenever the exact one is not
 /// empty, so rays through edges and corners of a box are never lost.
-const SLAB_EXIT_SCALE: f32 = 1.0 + 2.0 * (3.0 * UNIT_ROUNDOFF / (1.0 - 3.0 * UNIT_ROUNDOFF));
+pub(super) const SLAB_EXIT_SCALE: f32 =
+    1.0 + 2.0 * (3.0 * UNIT_ROUNDOFF / (1.0 - 3.0 * UNIT_ROUNDOFF));
 
 /// ε = 2⁻²⁴, the largest relative error of one rounded f32 operation.
 const UNIT_ROUNDOFF: f32 = f32::EPSILON * 0.5;
@@ -87,6 +89,24 @@ pub trait BoundingVolume: Copy + Send + Sync + fmt::Debug + PartialEq + 'static 
     /// Whether `p` lies inside the volume scaled about its centre by
     /// 1 + `tol`; for consistency checks of built trees.
     fn contains(&self, p: Vec3, tol: f32) -> bool;
+
+    /// The two children of an interior node in the layout the traversal
+    /// reads them in, stored in the parent (see [`super::Packed`]). Spheres
+    /// and ellipsoids keep the pair as it is; boxes transpose it so that
+    /// both are tested with one set of 4-wide operations.
+    type Pair: Copy + Send + Sync + fmt::Debug + 'static;
+
+    /// Pack two sibling volumes.
+    fn pair(left: &Self, right: &Self) -> Self::Pair;
+
+    /// [`Self::hit`] for both volumes of a pair, with the same results and
+    /// the same counts (two tests).
+    fn hit_pair<S: Stats>(
+        pair: &Self::Pair,
+        ray: &PreparedRay,
+        t_max: f32,
+        stats: &mut S,
+    ) -> [Option<f32>; 2];
 }
 
 /// Axis-aligned box, intersected with the slab test (Kay & Kajiya 1986).
@@ -107,6 +127,57 @@ impl From<Bounds> for Aabb {
 }
 
 impl BoundingVolume for Aabb {
+    type Pair = AabbPair;
+
+    fn pair(l: &Self, r: &Self) -> AabbPair {
+        AabbPair {
+            x: Vec4::new(l.min.x, r.min.x, l.max.x, r.max.x),
+            y: Vec4::new(l.min.y, r.min.y, l.max.y, r.max.y),
+            z: Vec4::new(l.min.z, r.min.z, l.max.z, r.max.z),
+        }
+    }
+
+    /// The slab test of [`Aabb::hit`] for two boxes at once: per axis, one
+    /// 4-wide subtract and multiply give [t_min(l), t_min(r), t_max(l),
+    /// t_max(r)]; min and max against the halves swapped give the near and
+    /// far planes of both boxes. The operations and their order are those of
+    /// the one-box test, so the results are bit-identical to it.
+    #[inline]
+    fn hit_pair<S: Stats>(
+        p: &AabbPair,
+        ray: &PreparedRay,
+        t_max: f32,
+        stats: &mut S,
+    ) -> [Option<f32>; 2] {
+        stats.box_test();
+        stats.box_test();
+        let (o, inv) = (ray.ray.origin, ray.inv_dir);
+        // Near and far planes of both boxes along one axis: lanes 0 and 1
+        // of the two results.
+        let slab = |lanes: Vec4, o: f32, inv: f32| {
+            let t = (lanes - Vec4::splat(o)) * Vec4::splat(inv);
+            let swapped = t.zwxy();
+            // As in `hit`: a NaN (parallel ray starting on a plane) frees
+            // the axis for that box.
+            let nan = t.is_nan_mask() | swapped.is_nan_mask();
+            (
+                Vec4::select(nan, Vec4::NEG_INFINITY, t.min(swapped)),
+                Vec4::select(nan, Vec4::INFINITY, t.max(swapped)),
+            )
+        };
+        let (nx, fx) = slab(p.x, o.x, inv.x);
+        let (ny, fy) = slab(p.y, o.y, inv.y);
+        let (nz, fz) = slab(p.z, o.z, inv.z);
+        let enter = nx.max(ny).max(nz);
+        let exit = fx.min(fy).min(fz) * SLAB_EXIT_SCALE;
+        let ok = enter.cmple(exit) & exit.cmpge(Vec4::ZERO) & enter.cmple(Vec4::splat(t_max));
+        let bits = ok.bitmask();
+        [
+            (bits & 1 != 0).then(|| enter.x.max(0.0)),
+            (bits & 2 != 0).then(|| enter.y.max(0.0)),
+        ]
+    }
+
     const NAME: &'static str = "aabb";
     const ROUND_ROBIN_AXES: bool = false;
 
@@ -166,6 +237,16 @@ impl BoundingVolume for Aabb {
     }
 }
 
+/// Two sibling boxes transposed for [`Aabb::hit_pair`]: per axis, the lanes
+/// are [left min, right min, left max, right max]. 48 bytes, 16-aligned.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AabbPair {
+    pub x: Vec4,
+    pub y: Vec4,
+    pub z: Vec4,
+}
+
 /// Sphere bounding volume (S3): |x − c| ≤ r.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -175,6 +256,25 @@ pub struct BoundingSphere {
 }
 
 impl BoundingVolume for BoundingSphere {
+    type Pair = [Self; 2];
+
+    fn pair(left: &Self, right: &Self) -> Self::Pair {
+        [*left, *right]
+    }
+
+    #[inline]
+    fn hit_pair<S: Stats>(
+        pair: &Self::Pair,
+        ray: &PreparedRay,
+        t_max: f32,
+        stats: &mut S,
+    ) -> [Option<f32>; 2] {
+        [
+            pair[0].hit(ray, t_max, stats),
+            pair[1].hit(ray, t_max, stats),
+        ]
+    }
+
     const NAME: &'static str = "sphere";
     const ROUND_ROBIN_AXES: bool = true;
 
@@ -279,6 +379,25 @@ fn floored_half_extent(b: &Bounds) -> (Vec3, Vec3) {
 }
 
 impl BoundingVolume for BoundingEllipsoid {
+    type Pair = [Self; 2];
+
+    fn pair(left: &Self, right: &Self) -> Self::Pair {
+        [*left, *right]
+    }
+
+    #[inline]
+    fn hit_pair<S: Stats>(
+        pair: &Self::Pair,
+        ray: &PreparedRay,
+        t_max: f32,
+        stats: &mut S,
+    ) -> [Option<f32>; 2] {
+        [
+            pair[0].hit(ray, t_max, stats),
+            pair[1].hit(ray, t_max, stats),
+        ]
+    }
+
     const NAME: &'static str = "ellipsoid";
     const ROUND_ROBIN_AXES: bool = false;
 
