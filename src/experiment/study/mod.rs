@@ -7,6 +7,8 @@
 //! error study, flood-fill convergence) is a new module here implementing
 //! [`Study`], plus one line in [`find`] and [`KINDS`].
 
+#[cfg(feature = "embree")]
+pub mod embree_oracle;
 pub mod render_cost;
 
 use super::sweep::{RunPoint, Value};
@@ -15,12 +17,18 @@ use std::path::Path;
 use std::time::Instant;
 
 /// Every study kind a manifest may name, in the order `--help` lists them.
-pub const KINDS: &[&str] = &["render_cost"];
+pub const KINDS: &[&str] = &[
+    "render_cost",
+    #[cfg(feature = "embree")]
+    "embree_oracle",
+];
 
 /// The study for a manifest `kind`.
 pub fn find(kind: &str) -> Option<&'static dyn Study> {
     match kind {
         "render_cost" => Some(&render_cost::RenderCost),
+        #[cfg(feature = "embree")]
+        "embree_oracle" => Some(&embree_oracle::EmbreeOracle),
         _ => None,
     }
 }
@@ -54,6 +62,14 @@ pub struct ParamError {
 }
 
 impl ParamError {
+    /// As an error for [`Study::run`]: "parameter `name`: message".
+    pub fn into_error(self) -> anyhow::Error {
+        match self.param {
+            Some(p) => anyhow::anyhow!("parameter `{p}`: {}", self.message),
+            None => anyhow::anyhow!("{}", self.message),
+        }
+    }
+
     /// A problem with parameter `name`.
     pub fn new(name: &str, message: impl Into<String>) -> Self {
         Self {
@@ -69,6 +85,9 @@ pub struct RunContext<'a> {
     /// Relative paths in parameters are resolved against this folder (the
     /// manifest's).
     pub base_dir: &'a Path,
+    /// The experiment's output folder, for studies that write per-run
+    /// figures beside data.csv.
+    pub out_dir: &'a Path,
     /// Repeats and warm-up.
     pub settings: StudySettings,
 }
