@@ -52,11 +52,12 @@ const PARAMETERS: &[ParamDoc] = &[
 
 const COLUMNS: &[&str] = &[
     "input",
+    "label",
     "primitives",
     "triangles",
     "closed",
     "sets",
-    "rays",
+    "rays_total",
     "hits",
     "tie_edge",
     "tie_coincident",
@@ -141,6 +142,17 @@ fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
     Ok(Config { source, options })
 }
 
+/// A category label short enough for a bar chart of a dozen inputs: the
+/// file's stem, cut to 6 characters and an ellipsis if longer than 7.
+fn short_label(name: &str) -> String {
+    let stem = name.rsplit_once('.').map_or(name, |(s, _)| s);
+    if stem.chars().count() <= 7 {
+        stem.to_string()
+    } else {
+        stem.chars().take(6).chain(['…']).collect()
+    }
+}
+
 fn per_million(count: u64, rays: u64) -> String {
     format!("{:.1}", count as f64 * 1e6 / rays.max(1) as f64)
 }
@@ -189,6 +201,7 @@ impl Study for EmbreeOracle {
         };
         let values = [
             input.name.clone(),
+            short_label(&input.name),
             report.primitives.to_string(),
             report.triangles.to_string(),
             report.closed.to_string(),
