@@ -8,6 +8,8 @@
 //! [`integrator`] computes their colour using the [`accel`]erator's
 //! intersection queries, and the [`film`] accumulates the result, which
 //! [`io::image`] writes out. Every hot path reports into a [`stats`] sink.
+//! `validate` (with the `embree` feature) checks the intersection code
+//! against Embree 4.
 
 pub mod accel;
 pub mod analysis;
@@ -24,3 +26,5 @@ pub mod scene;
 pub mod shape;
 pub mod stats;
 pub mod stats_report;
+#[cfg(feature = "embree")]
+pub mod validate;

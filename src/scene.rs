@@ -116,18 +116,12 @@ impl Scene {
 
     /// Bounds of every bounded primitive.
     pub fn bounds(&self) -> Bounds {
-        self.prims
-            .iter()
-            .filter_map(Primitive::bounds)
-            .fold(Bounds::EMPTY, Bounds::union)
+        crate::shape::bounds_of(&self.prims)
     }
 
     /// Number of triangles in the scene.
     pub fn triangle_count(&self) -> usize {
-        self.prims
-            .iter()
-            .filter(|p| matches!(p.shape, Shape::Triangle(_)))
-            .count()
+        crate::shape::triangle_count(&self.prims)
     }
 
     /// Closest primitive hit in (0, t_max): accelerator plus unbounded

@@ -25,22 +25,10 @@ use raylab::math::{Ray, Vec3};
 use raylab::shape::{Bounds, PreparedRay, Primitive, Shape, Triangle};
 use raylab::stats::{Counters, NoStats};
 use rayon::prelude::*;
-use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 mod common;
-use common::SplitMix64;
-
-/// A path under `data/external/`, after checking that the set-up ran.
-fn external(relative: &str) -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/external");
-    assert!(
-        root.join(".complete").is_file(),
-        "{} is missing or incomplete: run scripts/fetch-data (make test does)",
-        root.display()
-    );
-    root.join(relative)
-}
+use common::{external, SplitMix64};
 
 fn triangle(p0: Vec3, p1: Vec3, p2: Vec3) -> Primitive {
     Primitive {

@@ -185,3 +185,137 @@ fn help_documents_every_render_option() {
         assert!(text.contains(opt), "--help lacks {opt}");
     }
 }
+
+/// `raylab validate`: a clean run exits 0 and writes its CSV and figures;
+/// a tolerance it cannot meet makes it exit non-zero; bad input fails with
+/// the file named and nothing written.
+#[cfg(feature = "embree")]
+mod validate {
+    use super::{raylab, stderr, write, GOOD};
+    use std::path::Path;
+
+    fn external(rel: &str) -> String {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("data/external")
+            .join(rel)
+            .to_string_lossy()
+            .into_owned()
+    }
+
+    #[test]
+    fn clean_run_writes_csv_and_figures() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("worst.csv");
+        let out = dir.path().join("figs");
+        let o = raylab(&[
+            "validate",
+            "--mesh",
+            &external("assimp/3DS/fels.3ds"),
+            "--rays",
+            "2e3",
+            "--csv",
+            csv.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout);
+        for set in [
+            "random", "surface", "camera", "inside", "edges", "vertices", "grazing",
+        ] {
+            assert!(text.contains(set), "no {set} row: {text}");
+        }
+        // Header plus at least one worst case (edge rays always give some).
+        let rows = std::fs::read_to_string(&csv).unwrap().lines().count();
+        assert!(rows > 1, "{rows} lines in the CSV");
+        for stem in [
+            "validate-rel-dt",
+            "validate-normal-angle",
+            "validate-disagreements",
+        ] {
+            assert!(out.join(format!("{stem}.png")).is_file(), "{stem}.png");
+            assert!(out.join(format!("{stem}.svg")).is_file(), "{stem}.svg");
+        }
+    }
+
+    /// Rays aimed at edges disagree now and then by rounding: demanding
+    /// none (`--max-borderline 0`) is a breach; so is |Δt|/t ≤ 0 on an
+    /// unperturbed mesh, since two different formulas do not round alike.
+    #[test]
+    fn tolerance_breach_exits_non_zero() {
+        let mesh = external("cgal/camel.off");
+        for extra in [["--max-borderline", "0"], ["--t-rel", "0"]] {
+            let mut args = vec!["validate", "--mesh", &mesh, "--rays", "2000"];
+            args.extend(extra);
+            let o = raylab(&args);
+            let err = stderr(&o);
+            assert!(!o.status.success(), "{extra:?} should fail");
+            assert!(err.contains("tolerances exceeded"), "{err}");
+            assert!(!err.contains("panicked"), "{err}");
+        }
+    }
+
+    #[test]
+    fn bad_input_fails_cleanly() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("worst.csv");
+        let scene = write(dir.path(), "ok.toml", GOOD);
+        let cases: Vec<(Vec<String>, &str)> = vec![
+            (vec!["--mesh".into(), "no/such.off".into()], "no/such.off"),
+            (
+                vec!["--mesh".into(), external("assimp/invalid/empty.off")],
+                "empty.off",
+            ),
+            (
+                vec!["--mesh".into(), external("assimp/OFF/invalid.off")],
+                "invalid.off",
+            ),
+            (
+                vec!["--mesh".into(), external("assimp/invalid/malformed.obj")],
+                "malformed.obj",
+            ),
+            (
+                vec![
+                    "--scene".into(),
+                    scene.to_string_lossy().into(),
+                    "--rays".into(),
+                    "lots".into(),
+                ],
+                "lots",
+            ),
+            (
+                vec![
+                    "--scene".into(),
+                    scene.to_string_lossy().into(),
+                    "--t-rel".into(),
+                    "-1".into(),
+                ],
+                "-1",
+            ),
+            (
+                vec![
+                    "--scene".into(),
+                    scene.to_string_lossy().into(),
+                    "--accel".into(),
+                    "octree".into(),
+                ],
+                "octree",
+            ),
+            (vec![], "--mesh"),
+        ];
+        for (extra, expect) in cases {
+            let mut args = vec!["validate".to_string()];
+            args.extend(extra.iter().cloned());
+            args.extend(["--csv".to_string(), csv.to_string_lossy().into()]);
+            let o = raylab(&args.iter().map(String::as_str).collect::<Vec<_>>());
+            let err = stderr(&o);
+            assert!(!o.status.success(), "{extra:?} should fail");
+            assert!(
+                err.contains(expect),
+                "{extra:?}: stderr lacks {expect:?}: {err}"
+            );
+            assert!(!err.contains("panicked"), "{err}");
+            assert!(!csv.exists(), "{extra:?} left a CSV");
+        }
+    }
+}

@@ -316,6 +316,7 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
     };
     let ctx = RunContext {
         base_dir: manifest.base_dir(),
+        out_dir: &out_dir,
         settings: manifest.settings(),
     };
     for run in &todo {

@@ -11,6 +11,7 @@
 //! and the same parameters always give the same mesh, bit for bit.
 
 use super::MeshData;
+use crate::math::SplitMix64;
 use glam::Vec3;
 use serde::Deserialize;
 use std::collections::HashMap;
@@ -196,19 +197,13 @@ pub fn torus_knot(p: u32, q: u32, segments: u32, sides: u32) -> MeshData {
     }
 }
 
-/// SplitMix64: a tiny, well-mixed deterministic hash for the noise lattice.
-fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// Value noise: random values on an integer lattice, smoothly interpolated
 /// (smoothstep), summed over four octaves.
 fn value_noise(x: f32, y: f32, seed: u64) -> f32 {
     let lattice = |i: i64, j: i64, octave: u64| {
-        let h = splitmix64(seed ^ splitmix64((i as u64) ^ splitmix64((j as u64) ^ (octave << 56))));
+        let h = SplitMix64::mix(
+            seed ^ SplitMix64::mix((i as u64) ^ SplitMix64::mix((j as u64) ^ (octave << 56))),
+        );
         (h >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
     };
     let mut sum = 0.0;

@@ -149,6 +149,22 @@ impl Bounds {
     }
 }
 
+/// Bounds of every bounded primitive of a list (planes left out).
+pub fn bounds_of(prims: &[Primitive]) -> Bounds {
+    prims
+        .iter()
+        .filter_map(Primitive::bounds)
+        .fold(Bounds::EMPTY, Bounds::union)
+}
+
+/// Number of triangles in a list of primitives.
+pub fn triangle_count(prims: &[Primitive]) -> usize {
+    prims
+        .iter()
+        .filter(|p| matches!(p.shape, Shape::Triangle(_)))
+        .count()
+}
+
 impl Primitive {
     /// Nearest hit with `t` in the open interval (0, `t_max`).
     #[inline]

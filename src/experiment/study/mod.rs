@@ -8,6 +8,8 @@
 //! [`Study`], plus one line in [`find`] and [`KINDS`].
 
 pub mod accel_speed;
+#[cfg(feature = "embree")]
+pub mod embree_oracle;
 pub mod render_cost;
 
 use super::sweep::{RunPoint, Value};
@@ -16,13 +18,20 @@ use std::path::Path;
 use std::time::Instant;
 
 /// Every study kind a manifest may name, in the order `--help` lists them.
-pub const KINDS: &[&str] = &["render_cost", "accel_speed"];
+pub const KINDS: &[&str] = &[
+    "render_cost",
+    "accel_speed",
+    #[cfg(feature = "embree")]
+    "embree_oracle",
+];
 
 /// The study for a manifest `kind`.
 pub fn find(kind: &str) -> Option<&'static dyn Study> {
     match kind {
         "render_cost" => Some(&render_cost::RenderCost),
         "accel_speed" => Some(&accel_speed::AccelSpeed),
+        #[cfg(feature = "embree")]
+        "embree_oracle" => Some(&embree_oracle::EmbreeOracle),
         _ => None,
     }
 }
@@ -56,6 +65,14 @@ pub struct ParamError {
 }
 
 impl ParamError {
+    /// As an error for [`Study::run`]: "parameter `name`: message".
+    pub fn into_error(self) -> anyhow::Error {
+        match self.param {
+            Some(p) => anyhow::anyhow!("parameter `{p}`: {}", self.message),
+            None => anyhow::anyhow!("{}", self.message),
+        }
+    }
+
     /// A problem with parameter `name`.
     pub fn new(name: &str, message: impl Into<String>) -> Self {
         Self {
@@ -71,6 +88,9 @@ pub struct RunContext<'a> {
     /// Relative paths in parameters are resolved against this folder (the
     /// manifest's).
     pub base_dir: &'a Path,
+    /// The experiment's output folder, for studies that write per-run
+    /// figures beside data.csv.
+    pub out_dir: &'a Path,
     /// Repeats and warm-up.
     pub settings: StudySettings,
 }

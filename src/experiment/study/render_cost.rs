@@ -182,15 +182,7 @@ impl Study for RenderCost {
     }
 
     fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Row> {
-        let cfg = config(run, ctx.base_dir).map_err(|e| {
-            anyhow::anyhow!(
-                "{}{}",
-                e.param
-                    .map(|p| format!("parameter `{p}`: "))
-                    .unwrap_or_default(),
-                e.message
-            )
-        })?;
+        let cfg = config(run, ctx.base_dir).map_err(ParamError::into_error)?;
         let start = Instant::now();
         let scene = load_scene(&cfg.scene, &cfg.overrides)?;
         let load_s = start.elapsed().as_secs_f64();
