@@ -75,6 +75,9 @@ struct FigureFile {
     x_log: bool,
     #[serde(default)]
     y_log: bool,
+    dashed_where: Option<String>,
+    #[serde(default)]
+    only: BTreeMap<String, Vec<String>>,
     #[serde(default)]
     reference: Vec<Spanned<ReferenceFile>>,
 }
@@ -167,6 +170,14 @@ pub struct FigureSpec {
     pub x_log: bool,
     /// Logarithmic y axis.
     pub y_log: bool,
+    /// Line figures: a column whose value `true` marks estimated rows (an
+    /// `extrapolated` column); those points are drawn as a separate dashed
+    /// series per series value, joined to the last measured point before
+    /// them.
+    pub dashed_where: Option<String>,
+    /// Only rows whose cell in each named column is one of the listed
+    /// values (e.g. `only = { accel = ["brute", "bvh:aabb:s3"] }`).
+    pub only: BTreeMap<String, Vec<String>>,
     /// Series given inline in the manifest.
     pub references: Vec<Reference>,
     #[serde(skip)]
@@ -603,6 +614,8 @@ fn figure_spec(text: &str, path: &Path, f: &Spanned<FigureFile>) -> Result<Figur
         y_label: d.y_label.clone(),
         x_log: d.x_log,
         y_log: d.y_log,
+        dashed_where: d.dashed_where.clone(),
+        only: d.only.clone(),
         references,
         spans: FigureSpans {
             block: f.span(),

@@ -54,6 +54,8 @@
 //! y_label = "T"                 # default: the column name
 //! x_log = false               # log10 axes
 //! y_log = false
+//! only = { accel = ["brute", "bvh"] }  # only rows with these values in these columns
+//! dashed_where = "extrapolated" # line: rows with `true` here drawn as dashed series
 //! [[figure.reference]]        # series given inline (published values)
 //! label = "S1 (published)"
 //! x = { from = 300, to = 800, step = 25 }   # a list or a range

@@ -7,6 +7,7 @@
 //! error study, flood-fill convergence) is a new module here implementing
 //! [`Study`], plus one line in [`find`] and [`KINDS`].
 
+pub mod accel_cost;
 pub mod render_cost;
 
 use super::sweep::{RunPoint, Value};
@@ -15,12 +16,13 @@ use std::path::Path;
 use std::time::Instant;
 
 /// Every study kind a manifest may name, in the order `--help` lists them.
-pub const KINDS: &[&str] = &["render_cost"];
+pub const KINDS: &[&str] = &["render_cost", "accel_cost"];
 
 /// The study for a manifest `kind`.
 pub fn find(kind: &str) -> Option<&'static dyn Study> {
     match kind {
         "render_cost" => Some(&render_cost::RenderCost),
+        "accel_cost" => Some(&accel_cost::AccelCost),
         _ => None,
     }
 }

@@ -76,7 +76,7 @@ struct Config {
 }
 
 /// Parse "WxH" (or "W×H").
-fn parse_resolution(s: &str) -> Option<(u32, u32)> {
+pub(super) fn parse_resolution(s: &str) -> Option<(u32, u32)> {
     let (w, h) = s.split_once('x').or_else(|| s.split_once('×'))?;
     let (w, h) = (w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?);
     (w > 0 && h > 0 && i64::from(w) <= MAX_SIDE && i64::from(h) <= MAX_SIDE).then_some((w, h))
