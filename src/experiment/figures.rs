@@ -242,6 +242,7 @@ impl<'a> Data<'a> {
         );
         chart.x_scale = scale(spec.x_log);
         chart.y_scale = scale(spec.y_log);
+        chart.legend = spec.legend;
         chart
     }
 
@@ -369,6 +370,7 @@ impl<'a> Data<'a> {
             cats.clone(),
         );
         chart.y_scale = y_scale;
+        chart.legend = spec.legend;
         for (k, &y) in self.y.iter().enumerate() {
             for value in self.series_values() {
                 let values = cats

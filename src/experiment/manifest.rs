@@ -8,6 +8,7 @@
 
 use super::study::{self, ParamError, Study, StudySettings};
 use super::sweep::{expand_sweep, expand_values, template_names, Param, RunPoint, Sweep, Value};
+use crate::analysis::plot::LegendPosition;
 use crate::io::{line_col, InputError, Place};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -78,6 +79,7 @@ struct FigureFile {
     dashed_where: Option<String>,
     #[serde(default)]
     only: BTreeMap<String, Vec<String>>,
+    legend: Option<Spanned<String>>,
     #[serde(default)]
     reference: Vec<Spanned<ReferenceFile>>,
 }
@@ -178,6 +180,8 @@ pub struct FigureSpec {
     /// Only rows whose cell in each named column is one of the listed
     /// values (e.g. `only = { accel = ["brute", "bvh:aabb:s3"] }`).
     pub only: BTreeMap<String, Vec<String>>,
+    /// Where the legend goes (default: the first corner free of data).
+    pub legend: LegendPosition,
     /// Series given inline in the manifest.
     pub references: Vec<Reference>,
     #[serde(skip)]
@@ -562,6 +566,26 @@ fn figure_spec(text: &str, path: &Path, f: &Spanned<FigureFile>) -> Result<Figur
             format!("figure `{file}`: `numerator` and `denominator` belong to kind = \"ratio\""),
         ));
     }
+    let legend = match &d.legend {
+        None => LegendPosition::Auto,
+        Some(l) => match l.get_ref().as_str() {
+            "auto" => LegendPosition::Auto,
+            "upper-left" => LegendPosition::UpperLeft,
+            "upper-right" => LegendPosition::UpperRight,
+            "lower-left" => LegendPosition::LowerLeft,
+            "lower-right" => LegendPosition::LowerRight,
+            "hidden" => LegendPosition::Hidden,
+            other => {
+                return Err(at(
+                    l.span(),
+                    format!(
+                        "figure `{file}`: legend `{other}` is not one of auto, upper-left, \
+                         upper-right, lower-left, lower-right, hidden"
+                    ),
+                ))
+            }
+        },
+    };
     let mut references = Vec::new();
     for r in &d.reference {
         let rd = r.get_ref();
@@ -616,6 +640,7 @@ fn figure_spec(text: &str, path: &Path, f: &Spanned<FigureFile>) -> Result<Figur
         y_log: d.y_log,
         dashed_where: d.dashed_where.clone(),
         only: d.only.clone(),
+        legend,
         references,
         spans: FigureSpans {
             block: f.span(),
