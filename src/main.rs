@@ -43,7 +43,11 @@ enum Command {
     /// Runs every point of the sweeps of a manifest (analysis/NAME.toml)
     /// with a progress bar, appending one row per run to data.csv, and
     /// writes meta.json and the manifest's figures (PNG + SVG). The manifest format is described in the README ("Running an
-    /// experiment"). Build with --release: timings of a debug build mean
+    /// experiment"). Study kinds: render_cost (time and counts of rendering a
+    /// scene file) and accel_cost (an accelerator on a mesh in an automatic
+    /// S3-style scene: build and render time, tests per ray, bounding-volume
+    /// test cost, wasted volume, image equality with brute force; e.g.
+    /// analysis/s3-bvh-ladder.toml, analysis/bvh-volumes.toml). Build with --release: timings of a debug build mean
     /// little, and raylab warns when it is one.
     Experiment(ExperimentArgs),
     /// Count what tracing a scene costs with each accelerator: a pbrt-style

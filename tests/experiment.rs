@@ -302,6 +302,11 @@ fn malformed_manifests_name_file_line_and_field() {
         "repeats = 0",
         &["`repeats` must be at least 1"],
     );
+    assert_manifest_error(
+        "title = \"time\"",
+        "legend = \"middle\"",
+        &["legend `middle` is not one of auto, upper-left"],
+    );
 }
 
 #[test]

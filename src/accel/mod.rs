@@ -155,6 +155,20 @@ impl Accelerator {
         }
     }
 
+    /// [`Bvh::test_volumes`] on this accelerator's tree; `None` for
+    /// accelerators without bounding volumes of raylab's own.
+    pub fn test_volumes(&self, rays: &[PreparedRay], max_nodes: usize) -> Option<(u64, f64)> {
+        match self {
+            Accelerator::Brute(_) => None,
+            Accelerator::BvhAabb(b, _) => Some(b.test_volumes(rays, max_nodes)),
+            Accelerator::BvhSphere(b, _) => Some(b.test_volumes(rays, max_nodes)),
+            Accelerator::BvhEllipsoid(b, _) => Some(b.test_volumes(rays, max_nodes)),
+            Accelerator::Bvh4(_) => None,
+            #[cfg(feature = "embree")]
+            Accelerator::Embree(_) => None,
+        }
+    }
+
     pub fn kind(&self) -> AccelKind {
         match self {
             Accelerator::Brute(_) => AccelKind::Brute,

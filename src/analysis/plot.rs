@@ -552,8 +552,10 @@ impl LegendGlyph {
     }
 }
 
-/// Where the legend box goes inside the plot.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Where the legend box goes inside the plot (named in kebab case in
+/// experiment manifests and their `meta.json`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum LegendPosition {
     /// The first corner (upper right, upper left, lower right, lower left)
     /// where the box covers no data; if every corner has data, the y axis

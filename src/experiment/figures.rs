@@ -15,6 +15,10 @@
 //!   sweep and the same value of every other parameter and the denominator
 //!   in the series column. S1's T = t_OGSS / t_centre is such a ratio.
 //!
+//! `only` keeps the rows whose cells are among listed values. A line
+//! figure's `dashed_where` column splits off estimated rows (such
+//! as extrapolated times) into dashed series.
+//!
 //! Reference series from the manifest (published values) are drawn beside
 //! the measured ones, dashed by default. Files are written as `FILE.png`
 //! and `FILE.svg` by [`crate::analysis::plot`].
@@ -41,10 +45,34 @@ pub fn draw(
     match spec.kind {
         FigureKind::Line => {
             let mut chart = fig.line_chart(spec, scale);
-            for (label, points) in fig.series_points() {
-                chart
-                    .series
-                    .push(Series::new(label, points, SeriesStyle::LinePoints));
+            let flag = match spec.dashed_where.as_deref() {
+                None => None,
+                Some(c) => Some(table.column(c).ok_or_else(|| {
+                    anyhow!("figure `{}`: data.csv has no column `{c}`", spec.file)
+                })?),
+            };
+            let estimated = |r: &[String]| flag.is_some_and(|f| r[f] == "true");
+            let measured = fig.series_points(|r| !estimated(r));
+            let dashed = fig.series_points(estimated);
+            for ((label, points), (_, mut extra)) in measured.into_iter().zip(dashed) {
+                // Join the dashed part to the last measured point before it.
+                if let Some(&(first_x, _)) = extra.first() {
+                    if let Some(&last) = points.iter().rev().find(|p| p.0 < first_x) {
+                        extra.insert(0, last);
+                    }
+                }
+                if !points.is_empty() || extra.is_empty() {
+                    chart
+                        .series
+                        .push(Series::new(label.clone(), points, SeriesStyle::LinePoints));
+                }
+                if !extra.is_empty() {
+                    chart.series.push(Series::new(
+                        format!("{label} (extrapolated)"),
+                        extra,
+                        SeriesStyle::Dashed,
+                    ));
+                }
             }
             add_references(&mut chart, spec);
             chart.save(&stem)?;
@@ -148,10 +176,16 @@ impl<'a> Data<'a> {
                 .ok_or_else(|| anyhow!("figure `{}`: data.csv has no column `{name}`", spec.file))
         };
         let sweep = col("sweep")?;
+        let only: Vec<(usize, &Vec<String>)> = spec
+            .only
+            .iter()
+            .map(|(c, values)| Ok((col(c)?, values)))
+            .collect::<anyhow::Result<_>>()?;
         let rows: Vec<&Vec<String>> = table
             .rows
             .iter()
             .filter(|r| spec.sweep.as_ref().map_or(true, |s| &r[sweep] == s))
+            .filter(|r| only.iter().all(|(c, values)| values.contains(&r[*c])))
             .collect();
         if rows.is_empty() {
             bail!(
@@ -208,6 +242,7 @@ impl<'a> Data<'a> {
         );
         chart.x_scale = scale(spec.x_log);
         chart.y_scale = scale(spec.y_log);
+        chart.legend = spec.legend;
         chart
     }
 
@@ -228,15 +263,17 @@ impl<'a> Data<'a> {
         values
     }
 
-    /// Per y column and series: (legend text, (x, mean y) sorted by x).
-    fn series_points(&self) -> Vec<(String, Points)> {
+    /// Per y column and series: (legend text, (x, mean y) sorted by x),
+    /// from the rows `keep` accepts (series without such rows get no
+    /// points but keep their place).
+    fn series_points(&self, keep: impl Fn(&[String]) -> bool) -> Vec<(String, Points)> {
         let mut out = Vec::new();
         for (k, &y) in self.y.iter().enumerate() {
             for value in self.series_values() {
                 let mut pts: Points = self
                     .rows
                     .iter()
-                    .filter(|r| self.series_of(r) == value)
+                    .filter(|r| self.series_of(r) == value && keep(r))
                     .map(|r| (number(&r[self.x]), number(&r[y])))
                     .collect();
                 pts.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -333,6 +370,7 @@ impl<'a> Data<'a> {
             cats.clone(),
         );
         chart.y_scale = y_scale;
+        chart.legend = spec.legend;
         for (k, &y) in self.y.iter().enumerate() {
             for value in self.series_values() {
                 let values = cats

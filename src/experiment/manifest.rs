@@ -8,6 +8,7 @@
 
 use super::study::{self, ParamError, Study, StudySettings};
 use super::sweep::{expand_sweep, expand_values, template_names, Param, RunPoint, Sweep, Value};
+use crate::analysis::plot::LegendPosition;
 use crate::io::{line_col, InputError, Place};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -75,6 +76,10 @@ struct FigureFile {
     x_log: bool,
     #[serde(default)]
     y_log: bool,
+    dashed_where: Option<String>,
+    #[serde(default)]
+    only: BTreeMap<String, Vec<String>>,
+    legend: Option<Spanned<String>>,
     #[serde(default)]
     reference: Vec<Spanned<ReferenceFile>>,
 }
@@ -167,6 +172,16 @@ pub struct FigureSpec {
     pub x_log: bool,
     /// Logarithmic y axis.
     pub y_log: bool,
+    /// Line figures: a column whose value `true` marks estimated rows (an
+    /// `extrapolated` column); those points are drawn as a separate dashed
+    /// series per series value, joined to the last measured point before
+    /// them.
+    pub dashed_where: Option<String>,
+    /// Only rows whose cell in each named column is one of the listed
+    /// values (e.g. `only = { accel = ["brute", "bvh:aabb:s3"] }`).
+    pub only: BTreeMap<String, Vec<String>>,
+    /// Where the legend goes (default: the first corner free of data).
+    pub legend: LegendPosition,
     /// Series given inline in the manifest.
     pub references: Vec<Reference>,
     #[serde(skip)]
@@ -551,6 +566,26 @@ fn figure_spec(text: &str, path: &Path, f: &Spanned<FigureFile>) -> Result<Figur
             format!("figure `{file}`: `numerator` and `denominator` belong to kind = \"ratio\""),
         ));
     }
+    let legend = match &d.legend {
+        None => LegendPosition::Auto,
+        Some(l) => match l.get_ref().as_str() {
+            "auto" => LegendPosition::Auto,
+            "upper-left" => LegendPosition::UpperLeft,
+            "upper-right" => LegendPosition::UpperRight,
+            "lower-left" => LegendPosition::LowerLeft,
+            "lower-right" => LegendPosition::LowerRight,
+            "hidden" => LegendPosition::Hidden,
+            other => {
+                return Err(at(
+                    l.span(),
+                    format!(
+                        "figure `{file}`: legend `{other}` is not one of auto, upper-left, \
+                         upper-right, lower-left, lower-right, hidden"
+                    ),
+                ))
+            }
+        },
+    };
     let mut references = Vec::new();
     for r in &d.reference {
         let rd = r.get_ref();
@@ -603,6 +638,9 @@ fn figure_spec(text: &str, path: &Path, f: &Spanned<FigureFile>) -> Result<Figur
         y_label: d.y_label.clone(),
         x_log: d.x_log,
         y_log: d.y_log,
+        dashed_where: d.dashed_where.clone(),
+        only: d.only.clone(),
+        legend,
         references,
         spans: FigureSpans {
             block: f.span(),

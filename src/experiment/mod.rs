@@ -54,6 +54,9 @@
 //! y_label = "T"                 # default: the column name
 //! x_log = false               # log10 axes
 //! y_log = false
+//! only = { accel = ["brute", "bvh"] }  # only rows with these values in these columns
+//! dashed_where = "extrapolated" # line: rows with `true` here drawn as dashed series
+//! legend = "auto"             # or upper-left, upper-right, lower-left, lower-right, hidden
 //! [[figure.reference]]        # series given inline (published values)
 //! label = "S1 (published)"
 //! x = { from = 300, to = 800, step = 25 }   # a list or a range

@@ -16,7 +16,7 @@ pub use wide::Bvh4;
 
 use super::Accel;
 use crate::shape::{Bounds, PreparedRay, PrimHit, Primitive};
-use crate::stats::Stats;
+use crate::stats::{NoStats, Stats};
 use std::fmt;
 use std::str::FromStr;
 use std::time::Instant;
@@ -220,6 +220,7 @@ impl<V: BoundingVolume> Bvh<V> {
         let root_area = root.volume.surface_area();
         let mut area_ratio_sum = 0.0f64;
         let mut volume_ratio_sum = 0.0f64;
+        let (mut node_volume_sum, mut content_volume_sum) = (0.0f64, 0.0f64);
         let mut solid_nodes = 0usize;
         let mut sah = 0.0f64;
         // Post-order over (node, depth), computing each node's content box
@@ -259,6 +260,8 @@ impl<V: BoundingVolume> Bvh<V> {
             }
             if v > 0.0 {
                 volume_ratio_sum += (n.volume.volume() / v) as f64;
+                node_volume_sum += n.volume.volume() as f64;
+                content_volume_sum += v as f64;
                 solid_nodes += 1;
             }
         }
@@ -270,7 +273,35 @@ impl<V: BoundingVolume> Bvh<V> {
         } else {
             f64::NAN
         };
+        s.total_volume_ratio = if content_volume_sum > 0.0 {
+            node_volume_sum / content_volume_sum
+        } else {
+            f64::NAN
+        };
         s
+    }
+
+    /// Test every ray of `rays` against the volumes of up to `max_nodes`
+    /// nodes spread evenly over the tree (every k-th node of the flat
+    /// array), as the traversal would (`t_max` = ∞, [`NoStats`]), and
+    /// return (tests made, sum of the entry distances of the hits). The sum
+    /// is a result the caller must consume (e.g. with
+    /// [`std::hint::black_box`]) so the tests cannot be optimised away; it
+    /// exists to time one bounding-volume test of this tree's own volumes,
+    /// free of traversal bookkeeping and primitive tests.
+    pub fn test_volumes(&self, rays: &[PreparedRay], max_nodes: usize) -> (u64, f64) {
+        let stride = self.nodes.len().div_ceil(max_nodes.max(1)).max(1);
+        let mut tests = 0u64;
+        let mut sum = 0.0f64;
+        for ray in rays {
+            for node in self.nodes.iter().step_by(stride) {
+                tests += 1;
+                if let Some(t) = node.volume.hit(ray, f32::INFINITY, &mut NoStats) {
+                    sum += t as f64;
+                }
+            }
+        }
+        (tests, sum)
     }
 }
 
@@ -325,6 +356,12 @@ pub struct BvhStats {
     /// non-zero volume (flat leaves, such as one triangle, have none); NaN
     /// when there is none.
     pub mean_volume_ratio: f64,
+    /// Wasted volume summed rather than averaged: Σ vol(node's volume) /
+    /// Σ vol(box of its contents) over the same nodes. The mean weighs
+    /// every node alike (so the many small leaves dominate); this ratio
+    /// weighs nodes by size (so the big nodes near the root, which most
+    /// rays test, dominate). NaN when no node has a solid content box.
+    pub total_volume_ratio: f64,
 }
 
 /// The bounding volume kinds selectable by name, with their fit.

@@ -7,6 +7,7 @@
 //! error study, flood-fill convergence) is a new module here implementing
 //! [`Study`], plus one line in [`find`] and [`KINDS`].
 
+pub mod accel_cost;
 pub mod accel_speed;
 #[cfg(feature = "embree")]
 pub mod embree_oracle;
@@ -20,6 +21,7 @@ use std::time::Instant;
 /// Every study kind a manifest may name, in the order `--help` lists them.
 pub const KINDS: &[&str] = &[
     "render_cost",
+    "accel_cost",
     "accel_speed",
     #[cfg(feature = "embree")]
     "embree_oracle",
@@ -29,6 +31,7 @@ pub const KINDS: &[&str] = &[
 pub fn find(kind: &str) -> Option<&'static dyn Study> {
     match kind {
         "render_cost" => Some(&render_cost::RenderCost),
+        "accel_cost" => Some(&accel_cost::AccelCost),
         "accel_speed" => Some(&accel_speed::AccelSpeed),
         #[cfg(feature = "embree")]
         "embree_oracle" => Some(&embree_oracle::EmbreeOracle),
