@@ -6,7 +6,7 @@ CARGO ?= cargo
 RAYLAB := target/release/raylab
 OUT := out/demo
 
-.PHONY: all deps build demo test bench clean
+.PHONY: all deps build demo test bench book clean
 
 all: build
 
@@ -43,10 +43,19 @@ demo: build
 	@echo "  s1-ogss-cost (S1's tables, full), s3-bvh-ladder and bvh-volumes (S3, quick),"
 	@echo "  embree-oracle (full), embree-speed (quick); full runs: see README"
 
-## test: every test, including the real-mesh readers and the CLI.
+## test: every test, including the real-mesh readers, the Embree
+## cross-checks and the CLI; then the book is built (figures from the quick
+## experiments, run with the test build) and its links and images checked.
 test: deps
 	$(CARGO) test --all-targets
 	$(CARGO) test --doc
+	RAYLAB=target/debug/raylab scripts/book
+
+## book: the book (book/book/index.html): the quick experiments make its
+## figures, mdBook + mdbook-katex (installed into .deps/tools when missing)
+## build it, and scripts/check-book-links.py checks its links and images.
+book: build
+	@scripts/book
 
 ## bench: benchmarks (release builds; print ratios measured in one run).
 bench: deps
@@ -54,4 +63,4 @@ bench: deps
 
 clean:
 	$(CARGO) clean
-	rm -rf out analysis/out
+	rm -rf out analysis/out book/book book/src/figures

@@ -92,6 +92,7 @@ impl Camera {
         })
     }
 
+    // ANCHOR: generate_ray
     /// The ray through film position (x, y) in pixels, x to the right from
     /// the left edge, y down from the top edge. The direction is unit length
     /// so that `t` is a distance.
@@ -104,6 +105,7 @@ impl Camera {
         let dir = -self.near * self.n + uc * self.u + vr * self.v;
         Ray::new(self.eye, dir.normalize())
     }
+    // ANCHOR_END: generate_ray
 }
 
 #[cfg(test)]

@@ -29,13 +29,16 @@ impl Ray {
     }
 }
 
+// ANCHOR: reflect
 /// Mirror direction of `d` about the normal `n` (S2: P = 2(N·(−D))N + D).
 /// `n` must be unit length; `d` may have any length and the result keeps it.
 #[inline]
 pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
     d + 2.0 * n.dot(-d) * n
 }
+// ANCHOR_END: reflect
 
+// ANCHOR: refract
 /// Refracted direction by Snell's law (S2's formula). `i` points *away* from
 /// the surface towards where the ray came from (I = −D, unit), `n` is the unit
 /// normal on the incident side (n·i > 0), `eta = n1/n2`. Returns `None` on
@@ -51,6 +54,7 @@ pub fn refract(i: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
         Some((eta * cos_i - k.sqrt()) * n - eta * i)
     }
 }
+// ANCHOR_END: refract
 
 /// Orthonormal frame (right-handed) around a unit vector `n`, after Duff et
 /// al. 2017, "Building an Orthonormal Basis, Revisited" (branch-free).

@@ -112,6 +112,7 @@ impl Integrator for Whitted {
     }
 }
 
+// ANCHOR: whitted_trace
 /// The recursive trace. `ray.dir` must be unit length (so `t` is a
 /// distance for the maximum-distance cut-off).
 pub fn trace<S: Stats>(
@@ -189,3 +190,4 @@ pub fn trace<S: Stats>(
     }
     color
 }
+// ANCHOR_END: whitted_trace

@@ -14,6 +14,7 @@ impl Sphere {
         Self { centre, radius }
     }
 
+    // ANCHOR: sphere_roots
     /// The roots of `|o + t·d − c|² = r²`, smaller first, or `None` when the
     /// line misses. S2 writes At²+Bt+C = 0 with A = d·d, B = 2d·(o−c),
     /// C = |o−c|² − r². The textbook formula loses precision when the sphere
@@ -40,6 +41,7 @@ impl Sphere {
         let (t0, t1) = (c / q, q / a);
         Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
     }
+    // ANCHOR_END: sphere_roots
 
     /// Nearest root in (0, t_max): the entry point from outside, the exit
     /// point from inside (as Embree reports).

@@ -35,6 +35,7 @@ impl Triangle {
         }
     }
 
+    // ANCHOR: watertight
     /// Hit with `t` in (0, t_max), reporting barycentrics `u`, `v` of
     /// vertices 1 and 2 (the hit point is (1−u−v)·p0 + u·p1 + v·p2, Embree's
     /// convention). Both faces are hit (no culling).
@@ -95,6 +96,7 @@ impl Triangle {
             v: w * inv,
         })
     }
+    // ANCHOR_END: watertight
 
     /// Unit geometric normal (p1 − p0) × (p2 − p0): counter-clockwise
     /// vertices face the viewer.

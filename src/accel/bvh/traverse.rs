@@ -21,6 +21,7 @@ use crate::shape::{PreparedRay, PrimHit};
 use crate::stats::Stats;
 
 impl<V: BoundingVolume> Bvh<V> {
+    // ANCHOR: traverse
     /// The shared traversal. With `ANY_HIT` it returns at the first
     /// primitive hit in (0, t_max) (shadow rays); otherwise it records the
     /// closest hit in `best` and returns whether there was one.
@@ -101,4 +102,5 @@ impl<V: BoundingVolume> Bvh<V> {
             }
         }
     }
+    // ANCHOR_END: traverse
 }

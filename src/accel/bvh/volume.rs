@@ -191,6 +191,7 @@ impl BoundingVolume for Aabb {
         Aabb::from(*b)
     }
 
+    // ANCHOR: slab
     /// Slab test: per axis the ray is inside the slab for t between
     /// (min − o)/d and (max − o)/d, computed with the precomputed 1/d; the
     /// box is hit where the three intervals overlap.
@@ -212,6 +213,7 @@ impl BoundingVolume for Aabb {
         let t_exit = far.min_element() * SLAB_EXIT_SCALE;
         (t_enter <= t_exit && t_exit >= 0.0 && t_enter <= t_max).then_some(t_enter.max(0.0))
     }
+    // ANCHOR_END: slab
 
     fn surface_area(&self) -> f32 {
         let e = (self.max - self.min).max(Vec3::ZERO);
