@@ -47,8 +47,12 @@ enum Command {
     /// scene file) and accel_cost (an accelerator on a mesh in an automatic
     /// S3-style scene: build and render time, tests per ray, bounding-volume
     /// test cost, wasted volume, image equality with brute force; e.g.
-    /// analysis/s3-bvh-ladder.toml, analysis/bvh-volumes.toml). Build with --release: timings of a debug build mean
-    /// little, and raylab warns when it is one.
+    /// analysis/s3-bvh-ladder.toml, analysis/bvh-volumes.toml), accel_speed
+    /// (raylab's BVH against Embree on identical rays: Mrays/s and their
+    /// ratio, analysis/embree-speed.toml) and embree_oracle (validation
+    /// against Embree over meshes and quadrics, analysis/embree-oracle.toml).
+    /// Build with --release: timings of a debug build mean little, and raylab
+    /// warns when it is one.
     Experiment(ExperimentArgs),
     /// Count what tracing a scene costs with each accelerator: a pbrt-style
     /// table (rays by kind, nodes visited, volume and primitive tests, per-ray
@@ -57,7 +61,7 @@ enum Command {
     /// (PNG + SVG, log scale; `:` in names becomes `-`).
     ///
     /// Default accelerators: brute (only below 5000 primitives),
-    /// bvh:aabb:sah, bvh:sphere:s3, bvh:ellipsoid:s3.
+    /// bvh:aabb:sah, bvh4, bvh:sphere:s3, bvh:ellipsoid:s3.
     Stats {
         /// Scene file (TOML).
         scene: PathBuf,
@@ -218,7 +222,10 @@ struct RenderArgs {
     /// Pixel sampler: `centre` (1 sample) or `ogss:K` (K×K ordered grid).
     #[arg(long, value_parser = Sampler::parse)]
     sampler: Option<Sampler>,
-    /// Accelerator: `brute`.
+    /// Accelerator (default: the scene's): `brute`, `bvh[:volume[:builder[:leaf]]]`
+    /// (volume aabb|sphere|sphere-ritter|ellipsoid|ellipsoid-ritter, builder
+    /// s3|sah; `bvh` = bvh:aabb:sah), `bvh4` (4-wide box BVH, the fastest) or
+    /// `embree[:low|medium|high][+robust]`.
     #[arg(long)]
     accel: Option<AccelKind>,
     /// Maximum recursion depth (camera rays are depth 0).
