@@ -219,7 +219,9 @@ struct RenderArgs {
     /// Worker threads (default: all cores). Images are identical for any count.
     #[arg(long)]
     threads: Option<usize>,
-    /// Pixel sampler: `centre` (1 sample) or `ogss:K` (K×K ordered grid).
+    /// Pixel sampler: `centre` (1 sample), `ogss:K` (K×K ordered grid),
+    /// `rgss` (4-sample rotated grid), `jitter:K` (K×K stratified),
+    /// `random:N`, `halton:N` or `sobol:N` (randomised per pixel).
     #[arg(long, value_parser = Sampler::parse)]
     sampler: Option<Sampler>,
     /// Accelerator (default: the scene's): `brute`, `bvh[:volume[:builder[:leaf]]]`

@@ -341,25 +341,32 @@ material = "glass"
     assert_eq!(colour, Vec3::ZERO);
 }
 
-/// Images do not depend on the number of threads: bit-identical films.
+/// Images do not depend on the number of threads: bit-identical films, for
+/// the deterministic samplers and for the randomised ones (their random
+/// numbers are keyed by pixel, sample index and seed).
 #[test]
 fn one_and_two_threads_give_identical_images() {
-    let overrides = Overrides {
-        width: Some(96),
-        height: Some(72),
-        ..Default::default()
-    };
-    let s = load_scene(Path::new("data/scenes/s1-spheres.toml"), &overrides).unwrap();
-    let (a, ca) = render::<_, Counters>(&s, &Whitted, Some(1));
-    let (b, cb) = render::<_, Counters>(&s, &Whitted, Some(2));
-    assert_eq!(ca, cb);
     let bits = |f: &raylab::film::Film| -> Vec<u32> {
         f.pixels
             .iter()
             .flat_map(|p| p.mean.to_array().map(f32::to_bits))
             .collect()
     };
-    assert_eq!(bits(&a), bits(&b));
+    for sampler in [
+        "centre", "rgss", "jitter:2", "random:3", "halton:4", "sobol:4",
+    ] {
+        let overrides = Overrides {
+            width: Some(96),
+            height: Some(72),
+            sampler: Some(raylab::sampler::Sampler::parse(sampler).unwrap()),
+            ..Default::default()
+        };
+        let s = load_scene(Path::new("data/scenes/s1-spheres.toml"), &overrides).unwrap();
+        let (a, ca) = render::<_, Counters>(&s, &Whitted, Some(1));
+        let (b, cb) = render::<_, Counters>(&s, &Whitted, Some(2));
+        assert_eq!(ca, cb, "{sampler}");
+        assert_eq!(bits(&a), bits(&b), "{sampler}");
+    }
 }
 
 /// The shipped scenes load (meshes from data/external: run `make deps`).
