@@ -17,7 +17,7 @@
 use super::volume::BoundingVolume;
 use super::{Bvh, MAX_DEPTH};
 use crate::accel::brute::{any_of, closest_of};
-use crate::shape::{PreparedRay, PrimHit};
+use crate::shape::{PreparedRay, PrimHit, Primitive};
 use crate::stats::Stats;
 
 impl<V: BoundingVolume> Bvh<V> {
@@ -49,14 +49,16 @@ impl<V: BoundingVolume> Bvh<V> {
             let n = &self.packed[node];
             if n.count > 0 {
                 let range = n.first as usize..(n.first + n.count) as usize;
-                let local = &self.leaf_prims[range.clone()];
-                if ANY_HIT {
-                    if any_of(local.iter(), ray, t_max, stats) {
-                        return true;
-                    }
-                } else {
-                    let ids = self.indices[range].iter().copied();
-                    closest_of(ids.zip(local), ray, &mut t_max, best, stats);
+                if test_leaf::<S, ANY_HIT>(
+                    &self.leaf_prims,
+                    &self.indices,
+                    range,
+                    ray,
+                    &mut t_max,
+                    best,
+                    stats,
+                ) {
+                    return true;
                 }
             } else {
                 let left = n.first as usize;
@@ -89,18 +91,51 @@ impl<V: BoundingVolume> Bvh<V> {
             // Entry distances carry rounding, so a node entered exactly at
             // the current closest t is still visited (a hit there would have
             // to be closer by a rounding error to count).
-            loop {
-                if depth == 0 {
-                    return best.is_some();
-                }
-                depth -= 1;
-                let (next, t_enter) = stack[depth];
-                if t_enter <= t_max {
-                    node = next as usize;
-                    break;
-                }
+            match pop_live(&stack, &mut depth, t_max) {
+                Some(next) => node = next as usize,
+                None => return best.is_some(),
             }
         }
     }
     // ANCHOR_END: traverse
+}
+
+/// Test the primitives of one leaf, `range` of the leaf-ordered copies
+/// `leaf_prims` (whose scene indices are `indices[range]`). With `ANY_HIT`
+/// returns whether one is hit in (0, t_max); otherwise records the closest
+/// in `best`, shrinking `t_max`, and returns false. Shared by the binary and
+/// the 4-wide traversal.
+#[inline(always)]
+pub(super) fn test_leaf<S: Stats, const ANY_HIT: bool>(
+    leaf_prims: &[Primitive],
+    indices: &[u32],
+    range: std::ops::Range<usize>,
+    ray: &PreparedRay,
+    t_max: &mut f32,
+    best: &mut Option<(u32, PrimHit)>,
+    stats: &mut S,
+) -> bool {
+    let local = &leaf_prims[range.clone()];
+    if ANY_HIT {
+        any_of(local.iter(), ray, *t_max, stats)
+    } else {
+        let ids = indices[range].iter().copied();
+        closest_of(ids.zip(local), ray, t_max, best, stats);
+        false
+    }
+}
+
+/// Pop pending nodes until one whose entry distance does not exceed
+/// `t_max` (entry distances carry rounding, so a node entered exactly at
+/// the current closest t is still visited); `None` when none is left.
+#[inline(always)]
+pub(super) fn pop_live<T: Copy>(stack: &[(T, f32)], depth: &mut usize, t_max: f32) -> Option<T> {
+    while *depth > 0 {
+        *depth -= 1;
+        let (next, t_enter) = stack[*depth];
+        if t_enter <= t_max {
+            return Some(next);
+        }
+    }
+    None
 }

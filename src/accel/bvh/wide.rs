@@ -22,9 +22,9 @@
 //! examined, one box test per valid child box tested (and one for the
 //! root's box), primitive tests as the primitives count them.
 
+use super::traverse::{pop_live, test_leaf};
 use super::volume::{Aabb, BoundingVolume, SLAB_EXIT_SCALE};
 use super::{BuildOptions, Bvh, MAX_DEPTH};
-use crate::accel::brute::{any_of, closest_of};
 use crate::accel::Accel;
 use crate::shape::{PreparedRay, PrimHit, Primitive};
 use crate::stats::Stats;
@@ -164,14 +164,16 @@ impl Bvh4 {
             stats.node_visit();
             if cur.count > 0 {
                 let range = cur.first as usize..(cur.first + cur.count) as usize;
-                let local = &self.leaf_prims[range.clone()];
-                if ANY_HIT {
-                    if any_of(local.iter(), ray, t_max, stats) {
-                        return true;
-                    }
-                } else {
-                    let ids = self.indices[range].iter().copied();
-                    closest_of(ids.zip(local), ray, &mut t_max, best, stats);
+                if test_leaf::<S, ANY_HIT>(
+                    &self.leaf_prims,
+                    &self.indices,
+                    range,
+                    ray,
+                    &mut t_max,
+                    best,
+                    stats,
+                ) {
+                    return true;
                 }
             } else {
                 let n = &self.nodes[cur.first as usize];
@@ -209,16 +211,9 @@ impl Bvh4 {
                     continue;
                 }
             }
-            loop {
-                if depth == 0 {
-                    return best.is_some();
-                }
-                depth -= 1;
-                let (next, t_enter) = stack[depth];
-                if t_enter <= t_max {
-                    cur = next;
-                    break;
-                }
+            match pop_live(&stack, &mut depth, t_max) {
+                Some(next) => cur = next,
+                None => return best.is_some(),
             }
         }
     }

@@ -506,15 +506,7 @@ impl Study for AccelCost {
     }
 
     fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Row> {
-        let cfg = config(run, ctx.base_dir).map_err(|e| {
-            anyhow::anyhow!(
-                "{}{}",
-                e.param
-                    .map(|p| format!("parameter `{p}`: "))
-                    .unwrap_or_default(),
-                e.message
-            )
-        })?;
+        let cfg = config(run, ctx.base_dir).map_err(ParamError::into_error)?;
         let start = Instant::now();
         let mut scene = mesh_scene(&cfg.source, cfg.width, cfg.height)
             .with_context(|| format!("mesh `{}`", cfg.label))?;

@@ -84,22 +84,6 @@ struct Config {
     seed: u64,
 }
 
-fn required_scene(run: &RunPoint, base_dir: &Path) -> Result<PathBuf, ParamError> {
-    let scene = str_param(run, "scene")?
-        .ok_or_else(|| ParamError {
-            param: None,
-            message: "`scene` is required (in [fixed] or in the sweep)".into(),
-        })
-        .map(|s| base_dir.join(s))?;
-    if !scene.is_file() {
-        return Err(ParamError::new(
-            "scene",
-            format!("{}: no such scene file", scene.display()),
-        ));
-    }
-    Ok(scene)
-}
-
 fn accel_param(run: &RunPoint, name: &str, default: &str) -> Result<AccelKind, ParamError> {
     str_param(run, name)?
         .unwrap_or(default)
@@ -108,7 +92,7 @@ fn accel_param(run: &RunPoint, name: &str, default: &str) -> Result<AccelKind, P
 }
 
 fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
-    let scene = required_scene(run, base_dir)?;
+    let scene = super::render_cost::scene_param(run, base_dir)?;
     let accel = accel_param(run, "accel", "bvh4")?;
     let reference = accel_param(run, "reference", "embree:high+robust")?;
     let (width, height) = match str_param(run, "resolution")? {
@@ -190,15 +174,7 @@ impl Study for AccelSpeed {
     }
 
     fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Row> {
-        let cfg = config(run, ctx.base_dir).map_err(|e| {
-            anyhow::anyhow!(
-                "{}{}",
-                e.param
-                    .map(|p| format!("parameter `{p}`: "))
-                    .unwrap_or_default(),
-                e.message
-            )
-        })?;
+        let cfg = config(run, ctx.base_dir).map_err(ParamError::into_error)?;
         let overrides = Overrides {
             width: Some(cfg.width),
             height: Some(cfg.height),

@@ -82,7 +82,9 @@ pub(super) fn parse_resolution(s: &str) -> Option<(u32, u32)> {
     (w > 0 && h > 0 && i64::from(w) <= MAX_SIDE && i64::from(h) <= MAX_SIDE).then_some((w, h))
 }
 
-fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
+/// The required `scene` parameter, resolved against the manifest's folder
+/// and checked to be a file.
+pub(super) fn scene_param(run: &RunPoint, base_dir: &Path) -> Result<PathBuf, ParamError> {
     let scene = str_param(run, "scene")?
         .ok_or_else(|| ParamError {
             param: None,
@@ -95,6 +97,11 @@ fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
             format!("{}: no such scene file", scene.display()),
         ));
     }
+    Ok(scene)
+}
+
+fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
+    let scene = scene_param(run, base_dir)?;
     let sampler = str_param(run, "sampler")?
         .map(Sampler::parse)
         .transpose()
