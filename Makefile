@@ -28,6 +28,7 @@ demo: build
 	$(RAYLAB) render data/scenes/camel.toml --accel embree -o $(OUT)/camel-embree.png
 	$(RAYLAB) diff $(OUT)/camel-embree.png $(OUT)/camel.png
 	$(RAYLAB) render data/scenes/cornell-box.toml -o $(OUT)/cornell-box.png
+	$(RAYLAB) render data/scenes/aa/zone-plate.toml --sampler adaptive -o $(OUT)/zone-plate-adaptive.png --spp-map $(OUT)/zone-plate-adaptive-spp.png
 	$(RAYLAB) stats data/scenes/camel.toml --width 200 --height 150 --out $(OUT)/stats-camel
 	$(RAYLAB) validate --mesh data/external/cgal/camel.off --rays 20000 --out $(OUT)/validate-camel
 	$(RAYLAB) experiment analysis/s1-ogss-cost.toml
@@ -35,13 +36,14 @@ demo: build
 	$(RAYLAB) experiment analysis/bvh-volumes.toml --quick
 	$(RAYLAB) experiment analysis/embree-oracle.toml
 	$(RAYLAB) experiment analysis/embree-speed.toml --quick
+	$(RAYLAB) experiment analysis/aa-images.toml --quick
 	@echo
 	@echo "demo images are in $(OUT)/:"
 	@ls -1 $(OUT)/*.png | sed 's/^/  /'
 	@echo "cost heatmaps: $(OUT)/stats-camel/; Embree validation of the camel: $(OUT)/validate-camel/"
 	@echo "experiments (data.csv, meta.json, figures) in analysis/out/:"
 	@echo "  s1-ogss-cost (S1's tables, full), s3-bvh-ladder and bvh-volumes (S3, quick),"
-	@echo "  embree-oracle (full), embree-speed (quick); full runs: see README"
+	@echo "  embree-oracle (full), embree-speed and aa-images (quick); full runs: see README"
 
 ## test: every test, including the real-mesh readers, the Embree
 ## cross-checks and the CLI; then the book is built (figures from the quick

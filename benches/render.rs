@@ -8,14 +8,13 @@
 use raylab::integrator::{render, Whitted};
 use raylab::io::scene_file::{load_scene, Overrides};
 use raylab::scene::Scene;
-use raylab::stats::{Counters, NoStats, RayCounts, Stats};
-use std::ops::AddAssign;
+use raylab::stats::{Counters, NoStats, RayCounts, RenderStats};
 use std::path::Path;
 use std::time::Instant;
 
 const REPEATS: usize = 7;
 
-fn median_seconds<S: Stats + Default + AddAssign + Send>(scene: &Scene, threads: usize) -> f64 {
+fn median_seconds<S: RenderStats>(scene: &Scene, threads: usize) -> f64 {
     render::<_, S>(scene, &Whitted, Some(threads));
     let mut times: Vec<f64> = (0..REPEATS)
         .map(|_| {

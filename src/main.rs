@@ -4,7 +4,9 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use raylab::accel::AccelKind;
 use raylab::analysis::diff_files;
+use raylab::analysis::plot::Heatmap;
 use raylab::experiment;
+use raylab::film::Filter;
 use raylab::integrator::{render, Whitted};
 use raylab::io::image::{write_image, ImageFormat};
 use raylab::io::scene_file::{load_scene, Overrides};
@@ -221,9 +223,21 @@ struct RenderArgs {
     threads: Option<usize>,
     /// Pixel sampler: `centre` (1 sample), `ogss:K` (K×K ordered grid),
     /// `rgss` (4-sample rotated grid), `jitter:K` (K×K stratified),
-    /// `random:N`, `halton:N` or `sobol:N` (randomised per pixel).
+    /// `random:N`, `halton:N` or `sobol:N` (randomised per pixel), or
+    /// `adaptive[:T[:D]]` (rays through pixel corners, squares whose corners
+    /// differ in contrast by more than T (default 0.1) split in four, D
+    /// levels deep (default 2)).
     #[arg(long, value_parser = Sampler::parse)]
     sampler: Option<Sampler>,
+    /// Reconstruction filter: `box` (each pixel's own samples, S1's
+    /// downsample), `tent` (radius 1 pixel) or `mitchell` (Mitchell–Netravali
+    /// B = C = 1/3, radius 2). Not used by the adaptive sampler.
+    #[arg(long, value_parser = Filter::parse)]
+    filter: Option<Filter>,
+    /// Also write each pixel's sample count (rays spent by the adaptive
+    /// sampler) as a heatmap PNG.
+    #[arg(long)]
+    spp_map: Option<PathBuf>,
     /// Accelerator (default: the scene's): `brute`, `bvh[:volume[:builder[:leaf]]]`
     /// (volume aabb|sphere|sphere-ritter|ellipsoid|ellipsoid-ritter, builder
     /// s3|sah; `bvh` = bvh:aabb:sah), `bvh4` (4-wide box BVH, the fastest) or
@@ -291,6 +305,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         width: args.width,
         height: args.height,
         sampler: args.sampler,
+        filter: args.filter,
         accel: args.accel,
         max_depth: args.max_depth,
         seed: args.seed,
@@ -303,6 +318,16 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     let render_s = t1.elapsed().as_secs_f64();
     write_image(&args.output, &film.image())
         .with_context(|| format!("writing {}", args.output.display()))?;
+    if let Some(map) = &args.spp_map {
+        let stem = map.with_extension("");
+        let mut heat = Heatmap::new(
+            format!("{}: samples per pixel", scene.settings.sampler.name()),
+            film.count_array(),
+        );
+        heat.value_label = "camera rays traced".into();
+        heat.save(&stem)
+            .with_context(|| format!("writing {}.png", stem.display()))?;
+    }
     if !args.quiet {
         let cam = &scene.camera;
         let threads = args.threads.unwrap_or_else(rayon::current_num_threads);
@@ -316,6 +341,15 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             scene.accel.kind(),
             threads
         );
+        if scene.settings.sampler.is_adaptive() {
+            let (mean, max) = film.samples_per_pixel();
+            println!(
+                "adaptive   {mean:.3} rays per pixel on average (cost T = {mean:.3} × one centre \
+                 sample), {max} at most"
+            );
+        } else if scene.settings.filter != Filter::Box {
+            println!("filter     {}", scene.settings.filter.name());
+        }
         println!(
             "geometry   {} primitives ({} triangles), {} lights",
             scene.prims.len(),

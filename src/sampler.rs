@@ -26,6 +26,20 @@
 //!   the first 2^m samples still form a (0,m,2)-net: exactly one sample in
 //!   each of the 2^m boxes of every shape 2^-a × 2^-(m-a).
 //!
+//! - `Adaptive { threshold, depth }`: adaptive supersampling after Whitted
+//!   (1980): rays through the pixel corners (each shared by four pixels, so
+//!   about one ray per pixel), and wherever a square's four corner values
+//!   differ in contrast by more than `threshold` it is split in four (five
+//!   new rays: the edge midpoints and the centre), down to `depth` levels
+//!   (depth 2 = a 4×4 grid of cells, the resolution of OGSS 4×4). Contrast
+//!   is Mitchell's (1987) per channel, (max − min)/(max + min). The pixel is
+//!   the area-weighted mean of its leaf squares' corner means (the
+//!   trapezoid rule). It is not a pure function of the sample index — which
+//!   samples exist depends on the image — so [`crate::integrator::render`]
+//!   runs it as its own pass; `sample` only gives its first point, the
+//!   pixel's top-left corner, and `spp` that one ray. The rays actually
+//!   spent are each pixel's count in the film.
+//!
 //! Random numbers come from a SplitMix64 stream keyed by (seed, pixel,
 //! index) — or (seed, pixel) for the per-pixel randomisations — so any
 //! sample can be computed alone.
@@ -34,7 +48,7 @@ use crate::math::SplitMix64;
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Sampler {
     #[default]
@@ -55,7 +69,18 @@ pub enum Sampler {
     Sobol {
         n: u32,
     },
+    Adaptive {
+        threshold: f32,
+        depth: u32,
+    },
 }
+
+/// The adaptive sampler's defaults: a contrast of 0.1 and two levels (a
+/// 4×4 grid of cells where an edge crosses, as OGSS 4×4 everywhere).
+pub const ADAPTIVE_THRESHOLD: f32 = 0.1;
+pub const ADAPTIVE_DEPTH: u32 = 2;
+/// Deepest subdivision accepted (8 levels = a 256×256 grid of cells).
+const MAX_DEPTH: u32 = 8;
 
 /// RGSS: sample i sits in column `RGSS[i].0` and row `RGSS[i].1` of a 4×4
 /// grid (cell centres), one per row and per column; each is the previous
@@ -133,7 +158,30 @@ impl Sampler {
             Sampler::OrderedGrid { k } | Sampler::Jittered { k } => k * k,
             Sampler::RotatedGrid => 4,
             Sampler::Random { n } | Sampler::Halton { n } | Sampler::Sobol { n } => n,
+            // Its first ray (the pixel's top-left corner); the rest depend on
+            // the image.
+            Sampler::Adaptive { .. } => 1,
         }
+    }
+
+    /// The sampler's kind without its count (`ogss`, `jitter`, …): the
+    /// series of an error-against-samples plot.
+    pub fn family(&self) -> &'static str {
+        match self {
+            Sampler::Centre => "centre",
+            Sampler::OrderedGrid { .. } => "ogss",
+            Sampler::RotatedGrid => "rgss",
+            Sampler::Jittered { .. } => "jitter",
+            Sampler::Random { .. } => "random",
+            Sampler::Halton { .. } => "halton",
+            Sampler::Sobol { .. } => "sobol",
+            Sampler::Adaptive { .. } => "adaptive",
+        }
+    }
+
+    /// Whether this is the adaptive sampler (rendered by its own pass).
+    pub fn is_adaptive(&self) -> bool {
+        matches!(self, Sampler::Adaptive { .. })
     }
 
     /// Offset in [0, 1)² of sample `index` of pixel (`px`, `py`).
@@ -177,12 +225,18 @@ impl Sampler {
                     fraction(sobol_second(index) ^ sy),
                 )
             }
+            // The pixel's first lattice point; see the module docs.
+            Sampler::Adaptive { .. } => Vec2::ZERO,
         }
     }
 
     /// Parse the CLI form: `centre`, `ogss:K` (or `ogss` for 2×2), `rgss`,
-    /// `jitter:K`, `random:N`, `halton:N`, `sobol:N`.
+    /// `jitter:K`, `random:N`, `halton:N`, `sobol:N`, `adaptive[:T[:D]]`
+    /// (contrast threshold T, default 0.1; depth D, default 2).
     pub fn parse(s: &str) -> Result<Self, String> {
+        if let Some(rest) = s.strip_prefix("adaptive") {
+            return parse_adaptive(rest);
+        }
         let count = |what: &str, v: &str, max: u32| match v.parse::<u32>() {
             Ok(k) if (1..=max).contains(&k) => Ok(k),
             _ => Err(format!("{what} must be an integer in 1..={max}, got `{v}`")),
@@ -208,7 +262,7 @@ impl Sampler {
             }),
             _ => Err(format!(
                 "unknown sampler `{s}` (expected `centre`, `ogss:K`, `rgss`, `jitter:K`, \
-                 `random:N`, `halton:N` or `sobol:N`)"
+                 `random:N`, `halton:N`, `sobol:N` or `adaptive[:T[:D]]`)"
             )),
         }
     }
@@ -223,8 +277,47 @@ impl Sampler {
             Sampler::Random { n } => format!("random{n}"),
             Sampler::Halton { n } => format!("halton{n}"),
             Sampler::Sobol { n } => format!("sobol{n}"),
+            Sampler::Adaptive { threshold, depth } => format!("adaptive{threshold}d{depth}"),
         }
     }
+}
+
+/// The part after `adaptive`: empty, `:T` or `:T:D`.
+fn parse_adaptive(rest: &str) -> Result<Sampler, String> {
+    let mut parts = rest.split(':');
+    if parts.next() != Some("") {
+        return Err(format!(
+            "unknown sampler `adaptive{rest}` (expected `adaptive[:T[:D]]`)"
+        ));
+    }
+    let threshold = match parts.next() {
+        None => ADAPTIVE_THRESHOLD,
+        Some(t) => match t.parse::<f32>() {
+            Ok(v) if v >= 0.0 && v.is_finite() => v,
+            _ => {
+                return Err(format!(
+                    "adaptive contrast threshold must be a non-negative number, got `{t}`"
+                ))
+            }
+        },
+    };
+    let depth = match parts.next() {
+        None => ADAPTIVE_DEPTH,
+        Some(d) => match d.parse::<u32>() {
+            Ok(v) if v <= MAX_DEPTH => v,
+            _ => {
+                return Err(format!(
+                    "adaptive depth must be an integer in 0..={MAX_DEPTH}, got `{d}`"
+                ))
+            }
+        },
+    };
+    if let Some(extra) = parts.next() {
+        return Err(format!(
+            "adaptive takes at most a threshold and a depth (`adaptive:T:D`), got extra `{extra}`"
+        ));
+    }
+    Ok(Sampler::Adaptive { threshold, depth })
 }
 
 #[cfg(test)]
@@ -388,6 +481,8 @@ mod tests {
             ("random:7", 7, "random7"),
             ("halton:16", 16, "halton16"),
             ("sobol:32", 32, "sobol32"),
+            ("adaptive", 1, "adaptive0.1d2"),
+            ("adaptive:0.25:3", 1, "adaptive0.25d3"),
         ] {
             let s = Sampler::parse(text).unwrap();
             assert_eq!((s.spp(), s.name().as_str()), (spp, name));
@@ -399,6 +494,10 @@ mod tests {
             "jitter:65",
             "rgss:4",
             "poisson:4",
+            "adaptive:-1",
+            "adaptive:0.1:9",
+            "adaptive:0.1:2:3",
+            "adaptivex",
         ] {
             assert!(Sampler::parse(bad).is_err(), "{bad}");
         }

@@ -4,6 +4,7 @@
 
 use crate::accel::{Accel, AccelKind, Accelerator};
 use crate::camera::Camera;
+use crate::film::Filter;
 use crate::light::PointLight;
 use crate::material::Material;
 use crate::math::{Color, Ray, Vec3};
@@ -28,6 +29,8 @@ pub struct RenderSettings {
     /// Rays end after this distance (S2's "maximum distance m").
     pub max_distance: f32,
     pub sampler: Sampler,
+    /// How pixels are made from samples (box = each pixel's own mean).
+    pub filter: Filter,
     pub seed: u64,
 }
 
@@ -40,6 +43,7 @@ impl Default for RenderSettings {
             min_weight: 1e-3,
             max_distance: 1e30,
             sampler: Sampler::Centre,
+            filter: Filter::Box,
             seed: 0,
         }
     }

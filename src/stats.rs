@@ -35,6 +35,13 @@ pub trait Stats {
     fn primitive_hit(&mut self) {}
 }
 
+/// What the render loop needs of a sink: one instance per row or pixel
+/// (`Default`, `Clone`), shared read-only across threads (`Send + Sync`)
+/// and merged afterwards (`+=`). Every sink here is one.
+pub trait RenderStats: Stats + Default + AddAssign + Clone + Send + Sync {}
+
+impl<T: Stats + Default + AddAssign + Clone + Send + Sync> RenderStats for T {}
+
 /// The sink that records nothing and costs nothing.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NoStats;

@@ -380,11 +380,12 @@ fn shipped_scenes_load_and_render_small() {
     let mut paths: Vec<_> = std::fs::read_dir("data/scenes")
         .unwrap()
         .chain(std::fs::read_dir("data/scenes/s1-family").unwrap())
+        .chain(std::fs::read_dir("data/scenes/aa").unwrap())
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "toml"))
         .collect();
     paths.sort();
-    assert!(paths.len() >= 26, "{paths:?}");
+    assert!(paths.len() >= 29, "{paths:?}");
     for p in paths {
         let s = load_scene(&p, &overrides)
             .unwrap_or_else(|e| panic!("{e} (run `make deps` for meshes)"));

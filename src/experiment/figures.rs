@@ -30,6 +30,35 @@ use crate::analysis::plot::{BarChart, BarSeries, LineChart, Scale, Series, Serie
 use anyhow::{anyhow, bail};
 use std::path::Path;
 
+/// The least-squares slope of `points` in axis coordinates (log10 on a log
+/// axis); `None` below two usable points or when every x is the same.
+/// Points that cannot be drawn (≤ 0 on a log axis) are left out, as the
+/// chart leaves them out.
+pub fn fitted_slope(points: &[(f64, f64)], x_log: bool, y_log: bool) -> Option<f64> {
+    let axis = |v: f64, log: bool| {
+        if log {
+            (v > 0.0 && v.is_finite()).then(|| v.log10())
+        } else {
+            v.is_finite().then_some(v)
+        }
+    };
+    let uv: Vec<(f64, f64)> = points
+        .iter()
+        .filter_map(|&(x, y)| Some((axis(x, x_log)?, axis(y, y_log)?)))
+        .collect();
+    if uv.len() < 2 {
+        return None;
+    }
+    let n = uv.len() as f64;
+    let (mu, mv) = (
+        uv.iter().map(|p| p.0).sum::<f64>() / n,
+        uv.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxx: f64 = uv.iter().map(|p| (p.0 - mu).powi(2)).sum();
+    let sxy: f64 = uv.iter().map(|p| (p.0 - mu) * (p.1 - mv)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
 /// Draw one figure into `dir` from the rows of `table`. `param_columns`
 /// are the parameter columns (rows are paired on them for ratios). Returns
 /// the means of a ratio figure, `None` for other kinds.
@@ -62,9 +91,13 @@ pub fn draw(
                     }
                 }
                 if !points.is_empty() || extra.is_empty() {
+                    let shown = match fitted_slope(&points, spec.x_log, spec.y_log) {
+                        Some(k) if spec.fit_slope => format!("{label} (slope {k:.2})"),
+                        _ => label.clone(),
+                    };
                     chart
                         .series
-                        .push(Series::new(label.clone(), points, SeriesStyle::LinePoints));
+                        .push(Series::new(shown, points, SeriesStyle::LinePoints));
                 }
                 if !extra.is_empty() {
                     chart.series.push(Series::new(
@@ -433,4 +466,26 @@ fn average_equal_x(sorted: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
         }
     }
     out.into_iter().map(|(x, ys)| (x, mean(&ys))).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fitted_slope;
+
+    #[test]
+    fn slope_of_a_power_law_on_log_axes_is_its_exponent() {
+        // y = 3·x^−0.5 exactly: the log–log fit recovers −0.5 to rounding.
+        let pts: Vec<(f64, f64)> = [1.0, 4.0, 16.0, 64.0]
+            .iter()
+            .map(|&x: &f64| (x, 3.0 * x.powf(-0.5)))
+            .collect();
+        let k = fitted_slope(&pts, true, true).unwrap();
+        assert!((k + 0.5).abs() < 1e-12, "{k}");
+        // Linear axes: y = 2x + 1 has slope 2.
+        let lin = [(0.0, 1.0), (1.0, 3.0), (2.0, 5.0)];
+        assert!((fitted_slope(&lin, false, false).unwrap() - 2.0).abs() < 1e-12);
+        // Non-positive values are dropped on a log axis; one point left: none.
+        assert_eq!(fitted_slope(&[(1.0, 1.0), (2.0, 0.0)], true, true), None);
+        assert_eq!(fitted_slope(&[(1.0, 1.0), (1.0, 2.0)], false, false), None);
+    }
 }

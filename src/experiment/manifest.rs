@@ -78,6 +78,8 @@ struct FigureFile {
     y_log: bool,
     dashed_where: Option<String>,
     #[serde(default)]
+    fit_slope: bool,
+    #[serde(default)]
     only: BTreeMap<String, Vec<String>>,
     legend: Option<Spanned<String>>,
     #[serde(default)]
@@ -177,6 +179,11 @@ pub struct FigureSpec {
     /// series per series value, joined to the last measured point before
     /// them.
     pub dashed_where: Option<String>,
+    /// Line figures: fit a straight line to each series in the axes' own
+    /// coordinates (log10 on a log axis, so on log–log axes the slope is
+    /// the power-law exponent, e.g. −1 for error ∝ 1/spp) and put the slope
+    /// in the legend.
+    pub fit_slope: bool,
     /// Only rows whose cell in each named column is one of the listed
     /// values (e.g. `only = { accel = ["brute", "bvh:aabb:s3"] }`).
     pub only: BTreeMap<String, Vec<String>>,
@@ -639,6 +646,7 @@ fn figure_spec(text: &str, path: &Path, f: &Spanned<FigureFile>) -> Result<Figur
         x_log: d.x_log,
         y_log: d.y_log,
         dashed_where: d.dashed_where.clone(),
+        fit_slope: d.fit_slope,
         only: d.only.clone(),
         legend,
         references,

@@ -7,16 +7,18 @@
 //! sample is a pure function of (pixel, sample index, seed) the image is the
 //! same bit for bit on any number of threads.
 
+pub mod adaptive;
 pub mod whitted;
 
 pub use whitted::Whitted;
 
-use crate::film::{Film, PixelStats};
+use crate::film::{Film, FilmSample, Filter, PixelStats};
 use crate::math::{Color, Ray};
+use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::stats::{Counters, Stats};
+use crate::stats::{Counters, RenderStats, Stats};
+use glam::Vec2;
 use rayon::prelude::*;
-use std::ops::AddAssign;
 
 /// Where a camera sample comes from: the integrators that use random
 /// numbers seed them from this, never from thread state.
@@ -39,14 +41,18 @@ pub trait Integrator: Sync {
     ) -> Color;
 }
 
-/// Render every pixel of the scene's camera with the scene's sampler.
-/// `threads = None` uses rayon's global pool (all cores).
+/// Render every pixel of the scene's camera with the scene's sampler and
+/// reconstruction filter. `threads = None` uses rayon's global pool (all
+/// cores).
 pub fn render<I, S>(scene: &Scene, integrator: &I, threads: Option<usize>) -> (Film, S)
 where
     I: Integrator,
-    S: Stats + Default + AddAssign + Send,
+    S: RenderStats,
 {
-    in_pool(threads, || render_rows::<I, S>(scene, integrator))
+    in_pool(threads, || {
+        let (film, total, _) = render_film::<I, S>(scene, integrator, false);
+        (film, total)
+    })
 }
 
 /// Render with full counters and keep each pixel's own counts (the cost
@@ -57,35 +63,9 @@ pub fn render_with_costs<I: Integrator>(
     integrator: &I,
     threads: Option<usize>,
 ) -> (Film, Counters, Vec<Counters>) {
-    let run = || {
-        let cam = &scene.camera;
-        let (w, spp, seed) = (
-            cam.width as usize,
-            scene.settings.sampler.spp(),
-            scene.settings.seed,
-        );
-        let mut film = Film::new(cam.width, cam.height);
-        let mut costs = vec![Counters::default(); film.pixels.len()];
-        let total = film
-            .pixels
-            .par_chunks_mut(w)
-            .zip(costs.par_chunks_mut(w))
-            .enumerate()
-            .map(|(py, (row, cost_row))| {
-                let mut row_total = Counters::default();
-                for (px, (pixel, cost)) in row.iter_mut().zip(cost_row.iter_mut()).enumerate() {
-                    *pixel = render_pixel(scene, integrator, px as u32, py as u32, spp, seed, cost);
-                    row_total += *cost;
-                }
-                row_total
-            })
-            .reduce(Counters::default, |mut a, b| {
-                a += b;
-                a
-            });
-        (film, total, costs)
-    };
-    in_pool(threads, run)
+    in_pool(threads, || {
+        render_film::<I, Counters>(scene, integrator, true)
+    })
 }
 
 /// Run `f` on a pool of `threads` workers, or on rayon's global pool.
@@ -100,59 +80,106 @@ fn in_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T {
     }
 }
 
-fn render_rows<I, S>(scene: &Scene, integrator: &I) -> (Film, S)
+/// What one image row produced: its statistics total, each pixel's own
+/// statistics (when asked for) and its samples (when a filter wider than
+/// the box needs them).
+struct RowOutput<S> {
+    total: S,
+    per_pixel: Vec<S>,
+    samples: Vec<FilmSample>,
+}
+
+/// The render loop: parallel over rows, one sink per row. Returns the film
+/// (filtered if the scene asks for a filter), the totals and, if
+/// `per_pixel`, each pixel's statistics (else an empty vector).
+fn render_film<I, S>(scene: &Scene, integrator: &I, per_pixel: bool) -> (Film, S, Vec<S>)
 where
     I: Integrator,
-    S: Stats + Default + AddAssign + Send,
+    S: RenderStats,
 {
+    if let Sampler::Adaptive { threshold, depth } = scene.settings.sampler {
+        let (film, pixels) = adaptive::render::<I, S>(scene, integrator, threshold, depth);
+        let mut total = S::default();
+        for p in &pixels {
+            total += p.clone();
+        }
+        return (film, total, if per_pixel { pixels } else { Vec::new() });
+    }
     let cam = &scene.camera;
-    let sampler = scene.settings.sampler;
-    let spp = sampler.spp();
-    let seed = scene.settings.seed;
+    let spp = scene.settings.sampler.spp();
+    let filter = scene.settings.filter;
+    let keep_samples = filter != Filter::Box;
     let mut film = Film::new(cam.width, cam.height);
-    let stats = film
+    let rows: Vec<RowOutput<S>> = film
         .pixels
         .par_chunks_mut(cam.width as usize)
         .enumerate()
         .map(|(py, row)| {
-            let mut stats = S::default();
+            let mut out = RowOutput {
+                total: S::default(),
+                per_pixel: Vec::with_capacity(if per_pixel { row.len() } else { 0 }),
+                samples: Vec::with_capacity(if keep_samples {
+                    row.len() * spp as usize
+                } else {
+                    0
+                }),
+            };
             for (px, pixel) in row.iter_mut().enumerate() {
-                *pixel = render_pixel(
-                    scene, integrator, px as u32, py as u32, spp, seed, &mut stats,
-                );
+                let mut stats = S::default();
+                let samples = keep_samples.then_some(&mut out.samples);
+                *pixel = render_pixel(scene, integrator, px as u32, py as u32, samples, &mut stats);
+                if per_pixel {
+                    out.per_pixel.push(stats.clone());
+                }
+                out.total += stats;
             }
-            stats
+            out
         })
-        .reduce(S::default, |mut a, b| {
-            a += b;
-            a
-        });
-    (film, stats)
+        .collect();
+    let mut total = S::default();
+    let mut pixels = Vec::new();
+    let mut samples = Vec::new();
+    for row in rows {
+        total += row.total;
+        pixels.extend(row.per_pixel);
+        samples.extend(row.samples);
+    }
+    if keep_samples {
+        film.reconstruct(filter, &samples, spp as usize);
+    }
+    (film, total, pixels)
 }
 
+/// One pixel's samples through the scene's sampler: their running
+/// statistics, and each sample's film position and value appended to
+/// `samples` when given.
 #[inline]
 fn render_pixel<I: Integrator, S: Stats>(
     scene: &Scene,
     integrator: &I,
     px: u32,
     py: u32,
-    spp: u32,
-    seed: u64,
+    mut samples: Option<&mut Vec<FilmSample>>,
     stats: &mut S,
 ) -> PixelStats {
+    let sampler = scene.settings.sampler;
+    let seed = scene.settings.seed;
     let mut acc = PixelStats::default();
-    for index in 0..spp {
-        let off = scene.settings.sampler.sample(px, py, index, seed);
-        let ray = scene
-            .camera
-            .generate_ray(px as f32 + off.x, py as f32 + off.y);
+    for index in 0..sampler.spp() {
+        let off = sampler.sample(px, py, index, seed);
+        let pos = Vec2::new(px as f32, py as f32) + off;
+        let ray = scene.camera.generate_ray(pos.x, pos.y);
         let ctx = SampleContext {
             px,
             py,
             index,
             seed,
         };
-        acc.add(integrator.radiance(scene, &ray, &ctx, stats));
+        let value = integrator.radiance(scene, &ray, &ctx, stats);
+        acc.add(value);
+        if let Some(s) = samples.as_deref_mut() {
+            s.push(FilmSample { pos, value });
+        }
     }
     acc
 }

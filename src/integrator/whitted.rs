@@ -130,8 +130,9 @@ pub fn trace<S: Stats>(
     let m = scene.material(&hit);
     let n = hit.shading_normal;
     let view = -ray.dir;
+    let albedo = m.color_at(hit.point);
 
-    let mut color = m.emission + m.ambient * set.ambient * m.color;
+    let mut color = m.emission + m.ambient * set.ambient * albedo;
     for light in &scene.lights {
         let to_light = light.position - hit.point;
         let dist = to_light.length();
@@ -154,7 +155,7 @@ pub fn trace<S: Stats>(
         let diffuse = m.diffuse * n.dot(l);
         let r = reflect(-l, n);
         let specular = m.specular * r.dot(view).max(0.0).powf(m.shininess);
-        color += e * (diffuse * m.color + specular * m.specular_color);
+        color += e * (diffuse * albedo + specular * m.specular_color);
     }
 
     if depth + 1 >= set.max_depth {

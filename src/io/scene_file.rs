@@ -6,6 +6,7 @@ use super::procedural::Procedural;
 use super::{line_col, InputError, MeshData, Place};
 use crate::accel::AccelKind;
 use crate::camera::Camera;
+use crate::film::Filter;
 use crate::light::{Falloff, PointLight};
 use crate::material::Material;
 use crate::math::{rotation_xyz_degrees, Color, Mat3, Vec3};
@@ -80,6 +81,8 @@ pub struct RenderDef {
     pub min_weight: f32,
     pub max_distance: f32,
     pub sampler: Spanned<String>,
+    /// Reconstruction filter: `box`, `tent` or `mitchell`.
+    pub filter: Spanned<String>,
     pub seed: u64,
     pub accel: Spanned<String>,
 }
@@ -94,6 +97,7 @@ impl Default for RenderDef {
             min_weight: d.min_weight,
             max_distance: d.max_distance,
             sampler: Spanned::new(0..0, "centre".into()),
+            filter: Spanned::new(0..0, "box".into()),
             seed: d.seed,
             accel: Spanned::new(0..0, "brute".into()),
         }
@@ -206,6 +210,7 @@ pub struct Overrides {
     pub width: Option<u32>,
     pub height: Option<u32>,
     pub sampler: Option<Sampler>,
+    pub filter: Option<Filter>,
     pub accel: Option<AccelKind>,
     pub max_depth: Option<u32>,
     pub seed: Option<u64>,
@@ -390,6 +395,10 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
         Some(s) => s,
         None => Sampler::parse(r.sampler.get_ref()).map_err(|msg| at(r.sampler.span(), msg))?,
     };
+    let filter = match overrides.filter {
+        Some(f) => f,
+        None => Filter::parse(r.filter.get_ref()).map_err(|msg| at(r.filter.span(), msg))?,
+    };
     let accel = match overrides.accel {
         Some(a) => a,
         None => r
@@ -405,6 +414,7 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
         min_weight: r.min_weight,
         max_distance: r.max_distance,
         sampler,
+        filter,
         seed: overrides.seed.unwrap_or(r.seed),
     };
     if settings.max_distance.is_nan()

@@ -7,6 +7,7 @@
 //! error study, flood-fill convergence) is a new module here implementing
 //! [`Study`], plus one line in [`find`] and [`KINDS`].
 
+pub mod aa_images;
 pub mod accel_cost;
 pub mod accel_speed;
 #[cfg(feature = "embree")]
@@ -21,6 +22,7 @@ use std::time::Instant;
 /// Every study kind a manifest may name, in the order `--help` lists them.
 pub const KINDS: &[&str] = &[
     "render_cost",
+    "aa_images",
     "accel_cost",
     "accel_speed",
     #[cfg(feature = "embree")]
@@ -31,6 +33,7 @@ pub const KINDS: &[&str] = &[
 pub fn find(kind: &str) -> Option<&'static dyn Study> {
     match kind {
         "render_cost" => Some(&render_cost::RenderCost),
+        "aa_images" => Some(&aa_images::AaImages),
         "accel_cost" => Some(&accel_cost::AccelCost),
         "accel_speed" => Some(&accel_speed::AccelSpeed),
         #[cfg(feature = "embree")]
@@ -257,6 +260,18 @@ pub fn int_param(run: &RunPoint, name: &str, lo: i64, hi: i64) -> Result<Option<
         Some(v) => Err(ParamError::new(
             name,
             format!("must be an integer, got {} ({v})", v.type_name()),
+        )),
+    }
+}
+
+/// The boolean parameter `name` of a run, if it has one.
+pub fn bool_param(run: &RunPoint, name: &str) -> Result<Option<bool>, ParamError> {
+    match run.get(name) {
+        None => Ok(None),
+        Some(Value::Bool(b)) => Ok(Some(*b)),
+        Some(v) => Err(ParamError::new(
+            name,
+            format!("must be true or false, got {} ({v})", v.type_name()),
         )),
     }
 }

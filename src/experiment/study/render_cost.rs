@@ -20,6 +20,7 @@ use super::{
 };
 use crate::accel::AccelKind;
 use crate::experiment::sweep::RunPoint;
+use crate::film::Filter;
 use crate::integrator::{render, Whitted};
 use crate::io::scene_file::{load_scene, Overrides};
 use crate::sampler::Sampler;
@@ -31,7 +32,7 @@ use std::time::Instant;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RenderCost;
 
-const PARAMETERS: &[ParamDoc] = &[
+pub(super) const PARAMETERS: &[ParamDoc] = &[
     ParamDoc {
         name: "scene",
         doc: "scene file (TOML), relative to the manifest's folder; required",
@@ -64,15 +65,19 @@ const PARAMETERS: &[ParamDoc] = &[
         name: "seed",
         doc: "seed for randomised samplers and integrators (default: the scene's)",
     },
+    ParamDoc {
+        name: "filter",
+        doc: "reconstruction filter: box, tent or mitchell (default: the scene's)",
+    },
 ];
 
 /// The largest image side accepted (a typo guard, not a renderer limit).
 const MAX_SIDE: i64 = 65_536;
 
 /// A run's parameters, parsed.
-struct Config {
-    scene: PathBuf,
-    overrides: Overrides,
+pub(super) struct Config {
+    pub scene: PathBuf,
+    pub overrides: Overrides,
 }
 
 /// Parse "WxH" (or "W×H").
@@ -100,12 +105,18 @@ pub(super) fn scene_param(run: &RunPoint, base_dir: &Path) -> Result<PathBuf, Pa
     Ok(scene)
 }
 
-fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
+/// The parameters every rendering study shares: scene, sampler, filter,
+/// accel, resolution (or width/height), max_depth, seed.
+pub(super) fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
     let scene = scene_param(run, base_dir)?;
     let sampler = str_param(run, "sampler")?
         .map(Sampler::parse)
         .transpose()
         .map_err(|e| ParamError::new("sampler", e))?;
+    let filter = str_param(run, "filter")?
+        .map(Filter::parse)
+        .transpose()
+        .map_err(|e| ParamError::new("filter", e))?;
     let accel = str_param(run, "accel")?
         .map(str::parse::<AccelKind>)
         .transpose()
@@ -135,6 +146,7 @@ fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
             width,
             height,
             sampler,
+            filter,
             accel,
             max_depth,
             seed,
