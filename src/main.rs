@@ -49,8 +49,10 @@ enum Command {
     /// test cost, wasted volume, image equality with brute force; e.g.
     /// analysis/s3-bvh-ladder.toml, analysis/bvh-volumes.toml), accel_speed
     /// (raylab's BVH against Embree on identical rays: Mrays/s and their
-    /// ratio, analysis/embree-speed.toml) and embree_oracle (validation
-    /// against Embree over meshes and quadrics, analysis/embree-oracle.toml).
+    /// ratio, analysis/embree-speed.toml), embree_oracle (validation
+    /// against Embree over meshes and quadrics, analysis/embree-oracle.toml)
+    /// and aa_patterns (periodograms of the pixel samplers, as `raylab
+    /// spectrum`, with overlaid radial curves; analysis/aa-patterns.toml).
     /// Build with --release: timings of a debug build mean little, and raylab
     /// warns when it is one.
     Experiment(ExperimentArgs),

@@ -76,7 +76,7 @@ pub struct Ring {
     /// Sample variance of P over the ring (divisor count − 1).
     pub variance: f64,
     /// 10·log10(variance / mean²) in dB (Heck et al. 2013); −∞ for a ring
-    /// of equal values, NaN when the mean is 0.
+    /// of equal values, NaN when the ring has no power (mean ≤ 10⁻⁹).
     pub anisotropy_db: f64,
 }
 
@@ -317,6 +317,11 @@ pub fn white_noise_anisotropy_db(sets: usize) -> f64 {
     -10.0 * (sets.max(1) as f64).log10()
 }
 
+/// Ring mean power at or below which a ring counts as empty (anisotropy
+/// NaN): far above f64 rounding of the sums (~10⁻³⁰ for a grid's zeros),
+/// far below any real pattern's power.
+const NO_POWER: f64 = 1e-9;
+
 /// Mean, sample variance and anisotropy of the values of one ring.
 fn ring_stats(radius: usize, values: &[f64]) -> Ring {
     let n = values.len();
@@ -326,12 +331,19 @@ fn ring_stats(radius: usize, values: &[f64]) -> Ring {
     } else {
         f64::NAN
     };
+    // A ring without power (an ordered grid between its peaks) holds only
+    // rounding noise, ~10⁻³⁰, whose "anisotropy" would be meaningless.
+    let anisotropy_db = if mean > NO_POWER {
+        10.0 * (variance / (mean * mean)).log10()
+    } else {
+        f64::NAN
+    };
     Ring {
         radius,
         count: n,
         mean,
         variance,
-        anisotropy_db: 10.0 * (variance / (mean * mean)).log10(),
+        anisotropy_db,
     }
 }
 
@@ -803,5 +815,7 @@ mod tests {
         let r = ring_stats(3, &[1.0, 3.0]);
         assert_eq!((r.radius, r.count, r.mean, r.variance), (3, 2, 2.0, 2.0));
         assert!((r.anisotropy_db - 10.0 * 0.5f64.log10()).abs() < 1e-12);
+        // Rounding noise has no anisotropy.
+        assert!(ring_stats(1, &[0.0, 3e-30]).anisotropy_db.is_nan());
     }
 }
