@@ -3,8 +3,8 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use raylab::accel::AccelKind;
-use raylab::analysis::diff_files;
 use raylab::analysis::plot::Heatmap;
+use raylab::analysis::{diff_files, spectrum};
 use raylab::experiment;
 use raylab::film::Filter;
 use raylab::integrator::{render, Whitted};
@@ -51,8 +51,10 @@ enum Command {
     /// test cost, wasted volume, image equality with brute force; e.g.
     /// analysis/s3-bvh-ladder.toml, analysis/bvh-volumes.toml), accel_speed
     /// (raylab's BVH against Embree on identical rays: Mrays/s and their
-    /// ratio, analysis/embree-speed.toml) and embree_oracle (validation
-    /// against Embree over meshes and quadrics, analysis/embree-oracle.toml).
+    /// ratio, analysis/embree-speed.toml), embree_oracle (validation
+    /// against Embree over meshes and quadrics, analysis/embree-oracle.toml)
+    /// and aa_patterns (periodograms of the pixel samplers, as `raylab
+    /// spectrum`, with overlaid radial curves; analysis/aa-patterns.toml).
     /// Build with --release: timings of a debug build mean little, and raylab
     /// warns when it is one.
     Experiment(ExperimentArgs),
@@ -98,6 +100,39 @@ enum Command {
     /// normals within 1e-4 rad).
     #[cfg(feature = "embree")]
     Validate(ValidateArgs),
+    /// Power spectra of sampling patterns: point-set periodograms.
+    ///
+    /// Each point set is one pixel's samples (index 0 … spp−1) of the
+    /// sampler; the periodogram P(k) = |Σⱼ exp(−2πi k·xⱼ)|² / N (Heck,
+    /// Schlömer & Deussen 2013, a direct sum over integer frequencies
+    /// k ∈ [−F, F]²) is averaged over M pixels. Writes into --out:
+    /// spectrum.png/.svg (log-scale periodogram, DC at the centre; one per
+    /// sampler, spectrum-NAME, when several are given), radial.png/.svg
+    /// (radially averaged power, rings of width 1, with the white-noise
+    /// line P = 1 and the sampling rate √N), anisotropy.png/.svg (dB, with
+    /// the white-noise line 10·log10(1/M)) and spectrum.csv (every ring of
+    /// every sampler); prints a summary per sampler.
+    Spectrum(SpectrumArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct SpectrumArgs {
+    /// Samplers, comma-separated, as for `render --sampler` (e.g.
+    /// `jitter:4,random:16,sobol:16`); several are overlaid in the charts.
+    #[arg(long, required = true, value_delimiter = ',', value_parser = Sampler::parse)]
+    sampler: Vec<Sampler>,
+    /// Point sets (pixels) averaged, M.
+    #[arg(long, default_value_t = 1024)]
+    sets: usize,
+    /// Frequency bound F: k ranges over [−F, F]², rings 1 … F−1.
+    #[arg(long, default_value_t = 32)]
+    freq: usize,
+    /// Seed of the randomised samplers.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output folder (created if missing).
+    #[arg(long)]
+    out: PathBuf,
 }
 
 #[cfg(feature = "embree")]
@@ -281,6 +316,7 @@ fn main() -> ExitCode {
         }
         #[cfg(feature = "embree")]
         Command::Validate(args) => cmd_validate(args),
+        Command::Spectrum(args) => cmd_spectrum(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -399,6 +435,24 @@ fn cmd_diff(args: DiffArgs) -> Result<()> {
             writeln!(text, "wrote      {}", out.display())?;
         }
     }
+    print_out(&text)
+}
+
+fn cmd_spectrum(args: SpectrumArgs) -> Result<()> {
+    spectrum::check_sets_and_freq(args.sets, args.freq).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let spectra: Vec<_> = args
+        .sampler
+        .iter()
+        .map(|s| spectrum::PatternSpectrum::compute(s.name(), *s, args.sets, args.freq, args.seed))
+        .collect();
+    let written = spectrum::write_spectra(&args.out, &spectra)?;
+    let mut text = spectrum::summary_table(&spectra);
+    writeln!(
+        text,
+        "wrote {} in {}",
+        written.join(", "),
+        args.out.display()
+    )?;
     print_out(&text)
 }
 

@@ -1311,6 +1311,10 @@ pub struct Heatmap {
     pub x_label: String,
     /// y axis description ("pixel y" by default).
     pub y_label: String,
+    /// Axis values at the map's edges, [left, right, bottom, top] (e.g.
+    /// frequencies for a spectrum); `None` numbers cells from 0 at the
+    /// left and top edges.
+    pub extent: Option<[f64; 4]>,
 }
 
 impl Heatmap {
@@ -1324,6 +1328,7 @@ impl Heatmap {
             value_label: String::new(),
             x_label: "pixel x".into(),
             y_label: "pixel y".into(),
+            extent: None,
         }
     }
 
@@ -1410,10 +1415,15 @@ impl Figure for Heatmap {
         // The map: axes in cell units, the cells drawn as one bitmap.
         let (map_area, bar_area) = root.split_horizontally(HM_LEFT + map_w);
         let map_area = map_area.margin(HM_TOP, 0, 0, 0);
-        let x = Axis::fit(Scale::Linear, &[0.0, cols as f64], 0.0, false);
-        let mut y = Axis::fit(Scale::Linear, &[0.0, rows as f64], 0.0, false);
-        // Row 0 at the top: the y axis runs from `rows` (bottom) to 0 (top).
-        std::mem::swap(&mut y.lo, &mut y.hi);
+        // Row 0 at the top: by default the y axis runs from `rows` (bottom)
+        // to 0 (top).
+        let [left, right, bottom, top] =
+            self.extent.unwrap_or([0.0, cols as f64, rows as f64, 0.0]);
+        let x = Axis::fit(Scale::Linear, &[left, right], 0.0, false);
+        let mut y = Axis::fit(Scale::Linear, &[bottom, top], 0.0, false);
+        if bottom > top {
+            std::mem::swap(&mut y.lo, &mut y.hi);
+        }
         let mut chart = ChartBuilder::on(&map_area)
             .x_label_area_size(HM_BOTTOM)
             .y_label_area_size(HM_LEFT)

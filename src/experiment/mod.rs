@@ -375,6 +375,10 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
             Err(e) => failures.push(format!("{e:#}")),
         }
     }
+    match study.figures(&table, &out_dir) {
+        Ok(stems) => meta.figures.extend(stems),
+        Err(e) => failures.push(format!("{} figures: {e:#}", manifest.kind)),
+    }
     meta.wall_time_s = clock.elapsed().as_secs_f64();
     meta.finished_utc = Some(meta::utc_iso8601(SystemTime::now()));
     meta.complete = failures.is_empty();

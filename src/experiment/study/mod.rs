@@ -8,12 +8,14 @@
 //! [`Study`], plus one line in [`find`] and [`KINDS`].
 
 pub mod aa_images;
+pub mod aa_patterns;
 pub mod accel_cost;
 pub mod accel_speed;
 #[cfg(feature = "embree")]
 pub mod embree_oracle;
 pub mod render_cost;
 
+use super::data::Table;
 use super::sweep::{RunPoint, Value};
 use std::hint::black_box;
 use std::path::Path;
@@ -27,6 +29,7 @@ pub const KINDS: &[&str] = &[
     "accel_speed",
     #[cfg(feature = "embree")]
     "embree_oracle",
+    "aa_patterns",
 ];
 
 /// The study for a manifest `kind`.
@@ -38,6 +41,7 @@ pub fn find(kind: &str) -> Option<&'static dyn Study> {
         "accel_speed" => Some(&accel_speed::AccelSpeed),
         #[cfg(feature = "embree")]
         "embree_oracle" => Some(&embree_oracle::EmbreeOracle),
+        "aa_patterns" => Some(&aa_patterns::AaPatterns),
         _ => None,
     }
 }
@@ -127,6 +131,16 @@ pub trait Study: Sync {
 
     /// Perform one run and return its row.
     fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Row>;
+
+    /// Figures the study draws itself after the sweep, beside the
+    /// manifest's `[[figure]]`s, from `data.csv` (`table`, every row, so a
+    /// resumed experiment redraws them all) and the per-run files its rows
+    /// name in `out_dir`: for data a row cannot hold, such as a curve per
+    /// run. Returns the stems written (each as PNG and SVG). None by
+    /// default.
+    fn figures(&self, _table: &Table, _out_dir: &Path) -> anyhow::Result<Vec<String>> {
+        Ok(Vec::new())
+    }
 }
 
 /// Times of repeated runs of one measurement: wall-clock time, which is
