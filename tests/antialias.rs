@@ -289,3 +289,60 @@ fn bad_textures_and_filters_name_the_line() {
         assert!(err.contains(expect), "expected `{expect}` in: {err}");
     }
 }
+
+/// The `aa_images` study end to end: the reference is rendered once and
+/// reused, rows carry finite metrics, more samples give less error, the
+/// error spectra and their overlay figure are written, and a bad
+/// reference sampler is refused before anything runs.
+#[test]
+fn aa_images_study_measures_against_a_cached_reference() {
+    use raylab::experiment::{run_experiment, Options};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/aa/zone-plate.toml");
+    let manifest = format!(
+        "name = \"aa\"\nkind = \"aa_images\"\nrepeats = 1\nwarmup = 0\n[fixed]\n\
+         scene = {scene:?}\nresolution = \"32x32\"\nreference = \"jitter:8\"\n\
+         [[sweep]]\nname = \"spp\"\nsampler = [\"ogss:1\", \"ogss:4\", \"jitter:4\", \"adaptive\"]\n"
+    );
+    let path = dir.path().join("aa.toml");
+    std::fs::write(&path, &manifest).unwrap();
+    let out = dir.path().join("out");
+    let opts = Options {
+        quick: false,
+        resume: false,
+        out_dir: Some(out.clone()),
+        threads: Some(2),
+        progress: false,
+    };
+    run_experiment(&path, &opts).unwrap();
+    let reference = out.join("references/zone-plate-32x32-jitter8.exr");
+    let modified = std::fs::metadata(&reference).unwrap().modified().unwrap();
+    let mut rdr = csv::Reader::from_path(out.join("data.csv")).unwrap();
+    let headers = rdr.headers().unwrap().clone();
+    let col = |name: &str| headers.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = rdr.records().map(Result::unwrap).collect();
+    assert_eq!(rows.len(), 4);
+    let mse = |i: usize| rows[i][col("mse")].parse::<f64>().unwrap();
+    for (i, r) in rows.iter().enumerate() {
+        assert!(mse(i).is_finite() && mse(i) > 0.0, "{r:?}");
+        assert!(out.join(&r[col("error_spectrum_csv")]).is_file());
+    }
+    // OGSS 4×4 resolves the zone plate far better than one centre sample.
+    assert!(mse(1) < 0.5 * mse(0), "{} vs {}", mse(1), mse(0));
+    assert_eq!(&rows[1][col("rays_per_pixel")], "16.000000");
+    assert!(out
+        .join("aa-error-spectrum-spp-zone-plate-16spp.png")
+        .is_file());
+    // Run again: the reference is read, not rendered again.
+    std::fs::remove_file(out.join("data.csv")).unwrap();
+    run_experiment(&path, &opts).unwrap();
+    assert_eq!(
+        std::fs::metadata(&reference).unwrap().modified().unwrap(),
+        modified
+    );
+
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, manifest.replace("jitter:8", "adaptive")).unwrap();
+    let err = run_experiment(&bad, &opts).unwrap_err().to_string();
+    assert!(err.contains("reference"), "{err}");
+}

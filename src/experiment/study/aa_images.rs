@@ -13,6 +13,17 @@
 //! samplers reuse it. A wider filter (tent, Mitchell) is judged against the
 //! same box reference: what it trades is aliasing for blur, and both count
 //! as error against the pixel's true average.
+//!
+//! Where the error sits in frequency tells aliasing from noise and blur:
+//! each run takes the power spectrum of its luminance error image (test −
+//! reference, via [`crate::analysis::spectrum::power_spectrum`]) and its
+//! radial profile, writes the profile to `spectra/` and reports the mean
+//! error power below and above a quarter cycle per pixel. Aliasing folds
+//! high image frequencies down to low ones (false rings, moiré): low-band
+//! error; white noise spreads evenly; a blurring filter's error sits where
+//! the image has detail. After the sweep the study overlays the profiles of
+//! the runs that share a sweep, scene and sample count
+//! (`aa-error-spectrum-…`).
 
 use super::render_cost::{config, Config, PARAMETERS as RENDER_PARAMETERS};
 use super::{
@@ -20,14 +31,20 @@ use super::{
     StudySettings, Timings,
 };
 use crate::analysis::metrics::{compare, flip_error_map, write_flip_map};
+use crate::analysis::plot::{Heatmap, LineChart, Palette, Scale, Series, SeriesStyle};
+use crate::analysis::spectrum::{power_spectrum, radial_profile};
+use crate::experiment::data::Table;
 use crate::experiment::sweep::RunPoint;
 use crate::film::Filter;
 use crate::integrator::{render, Whitted};
 use crate::io::image::{read_image, write_image, LinearImage};
 use crate::io::scene_file::load_scene;
+use crate::math::{luminance, Color};
 use crate::sampler::Sampler;
 use crate::stats::{NoStats, RayCounts};
 use anyhow::Context;
+use ndarray::Array2;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -111,6 +128,9 @@ impl Study for AaImages {
             "rel_mse",
             "psnr",
             "flip_mean",
+            "error_power_low",
+            "error_power_high",
+            "error_spectrum_csv",
             "reference_sampler",
             "reference_file",
         ]
@@ -121,6 +141,63 @@ impl Study for AaImages {
 
     fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), ParamError> {
         aa_config(run, base_dir).map(|_| ())
+    }
+
+    /// Overlay the error spectra of the runs that share a sweep, a scene
+    /// and a nominal sample count (adaptive runs, whose counts differ per
+    /// pixel, are left to the cost–quality figures).
+    fn figures(&self, table: &Table, out_dir: &Path) -> anyhow::Result<Vec<String>> {
+        let col = |name: &str| {
+            table
+                .column(name)
+                .ok_or_else(|| anyhow::anyhow!("data.csv has no column `{name}`"))
+        };
+        let (sweep, scene, spp, sampler, filter, family, csv) = (
+            col("sweep")?,
+            col("scene_name")?,
+            col("spp")?,
+            col("sampler_name")?,
+            col("filter_name")?,
+            col("sampler_family")?,
+            col("error_spectrum_csv")?,
+        );
+        let mut groups: BTreeMap<(String, String, u32), Vec<&Vec<String>>> = BTreeMap::new();
+        for row in &table.rows {
+            if row[family] == "adaptive" {
+                continue;
+            }
+            let n: u32 = row[spp].parse().unwrap_or(0);
+            groups
+                .entry((row[sweep].clone(), row[scene].clone(), n))
+                .or_default()
+                .push(row);
+        }
+        let mut written = Vec::new();
+        for ((sweep_name, scene_name, n), rows) in groups {
+            if rows.len() < 2 {
+                continue;
+            }
+            let mut chart = LineChart::new(
+                format!("{scene_name}: error spectrum at {n} samples per pixel ({sweep_name})"),
+                "frequency (cycles per pixel; Nyquist 0.5)".to_string(),
+                "radial mean of |DFT(luminance error)|² / pixels".to_string(),
+            );
+            chart.y_scale = Scale::Log10;
+            for row in rows {
+                let label = match row[filter].as_str() {
+                    "box" => row[sampler].clone(),
+                    f => format!("{} + {f}", row[sampler]),
+                };
+                let profile = read_profile(&out_dir.join(&row[csv]))?;
+                chart
+                    .series
+                    .push(Series::new(label, profile, SeriesStyle::Line));
+            }
+            let stem = format!("aa-error-spectrum-{sweep_name}-{scene_name}-{n}spp");
+            chart.save(&out_dir.join(&stem))?;
+            written.push(stem);
+        }
+        Ok(written)
     }
 
     fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Row> {
@@ -140,19 +217,39 @@ impl Study for AaImages {
         let pixels = u64::from(w) * u64::from(h);
         let (_, max_rays) = film.samples_per_pixel();
         let settings = &scene.settings;
+        let stem = format!(
+            "{}-{}x{h}-{}-{}",
+            file_stem(&cfg.render.scene),
+            w,
+            settings.sampler.name(),
+            settings.filter.name()
+        );
+        let spectrum = power_spectrum(&luminance_error(&image, &reference));
+        let profile = radial_profile(&spectrum);
+        let band_mean = |keep: &dyn Fn(f64) -> bool| {
+            let v: Vec<f64> = profile.iter().filter(|p| keep(p.0)).map(|p| p.1).collect();
+            v.iter().sum::<f64>() / v.len().max(1) as f64
+        };
+        let (low, high) = (band_mean(&|f| f < SPLIT), band_mean(&|f| f >= SPLIT));
+        let spectrum_csv = format!("spectra/{stem}-error-radial.csv");
+        write_profile(&ctx.out_dir.join(&spectrum_csv), &profile)?;
         if cfg.images {
-            let stem = format!(
-                "{}-{}x{h}-{}-{}",
-                file_stem(&cfg.render.scene),
-                w,
-                settings.sampler.name(),
-                settings.filter.name()
-            );
             let dir = ctx.out_dir.join("images");
             std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
             write_image(&dir.join(format!("{stem}.png")), &image)?;
             let map = flip_error_map(&image, &reference)?;
             write_flip_map(&dir.join(format!("{stem}-flip.png")), &map)?;
+            let mut heat = Heatmap::new(
+                format!("{stem}: power spectrum of the luminance error"),
+                spectrum,
+            );
+            heat.log_scale = true;
+            heat.palette = Palette::Magma;
+            heat.value_label = "|DFT(error)|² / pixels".into();
+            heat.x_label = "horizontal frequency (cycles per pixel, DC at the centre)".into();
+            heat.y_label = "vertical frequency".into();
+            heat.extent = Some([-0.5, 0.5, -0.5, 0.5]);
+            heat.save(&dir.join(format!("{stem}-error-spectrum")))?;
         }
         Ok(vec![
             ("width".into(), w.to_string()),
@@ -178,6 +275,9 @@ impl Study for AaImages {
             ("rel_mse".into(), format!("{:.6e}", m.rel_mse)),
             ("psnr".into(), format!("{:.3}", m.psnr)),
             ("flip_mean".into(), format!("{:.6}", m.flip.mean)),
+            ("error_power_low".into(), format!("{low:.6e}")),
+            ("error_power_high".into(), format!("{high:.6e}")),
+            ("error_spectrum_csv".into(), spectrum_csv),
             ("reference_sampler".into(), cfg.reference.name()),
             (
                 "reference_file".into(),
@@ -194,6 +294,56 @@ fn sampler_series(s: &Sampler) -> String {
         Sampler::Adaptive { depth, .. } => format!("adaptive d{depth}"),
         other => other.family().into(),
     }
+}
+
+/// Rings below this many cycles per pixel are the low band (where aliased
+/// energy lands), the rest the high band; Nyquist is 0.5.
+const SPLIT: f64 = 0.25;
+
+/// Luminance of `test` − `reference`, per pixel.
+fn luminance_error(test: &LinearImage, reference: &LinearImage) -> Array2<f64> {
+    let (h, w, _) = test.dim();
+    let lum = |img: &LinearImage, y: usize, x: usize| {
+        f64::from(luminance(Color::new(
+            img[[y, x, 0]],
+            img[[y, x, 1]],
+            img[[y, x, 2]],
+        )))
+    };
+    Array2::from_shape_fn((h, w), |(y, x)| lum(test, y, x) - lum(reference, y, x))
+}
+
+/// Write a radial profile as CSV: `cycles_per_pixel,power`.
+fn write_profile(path: &Path, profile: &[(f64, f64)]) -> anyhow::Result<()> {
+    let dir = path.parent().expect("profiles live in a folder");
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut text = String::from("cycles_per_pixel,power\n");
+    for (f, p) in profile {
+        text.push_str(&format!("{f:.6},{p:.6e}\n"));
+    }
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+/// Read a profile written by [`write_profile`].
+fn read_profile(path: &Path) -> anyhow::Result<Vec<(f64, f64)>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    text.lines()
+        .enumerate()
+        .skip(1)
+        .map(|(i, line)| {
+            let parse = |v: Option<&str>| v.and_then(|v| v.trim().parse::<f64>().ok());
+            let mut cells = line.split(',');
+            match (parse(cells.next()), parse(cells.next())) {
+                (Some(f), Some(p)) => Ok((f, p)),
+                _ => Err(anyhow::anyhow!(
+                    "{}:{}: expected `cycles_per_pixel,power`, got `{line}`",
+                    path.display(),
+                    i + 1
+                )),
+            }
+        })
+        .collect()
 }
 
 fn file_stem(path: &Path) -> String {
