@@ -28,6 +28,7 @@ demo: build
 	$(RAYLAB) render data/scenes/camel.toml --accel embree -o $(OUT)/camel-embree.png
 	$(RAYLAB) diff $(OUT)/camel-embree.png $(OUT)/camel.png
 	$(RAYLAB) render data/scenes/cornell-box.toml -o $(OUT)/cornell-box.png
+	$(RAYLAB) render data/scenes/cornell-box.toml --integrator path:4 --sampler random:64 --accel bvh -o $(OUT)/cornell-box-path.png
 	$(RAYLAB) stats data/scenes/camel.toml --width 200 --height 150 --out $(OUT)/stats-camel
 	$(RAYLAB) validate --mesh data/external/cgal/camel.off --rays 20000 --out $(OUT)/validate-camel
 	$(RAYLAB) experiment analysis/s1-ogss-cost.toml
@@ -35,6 +36,7 @@ demo: build
 	$(RAYLAB) experiment analysis/bvh-volumes.toml --quick
 	$(RAYLAB) experiment analysis/embree-oracle.toml
 	$(RAYLAB) experiment analysis/embree-speed.toml --quick
+	$(RAYLAB) experiment analysis/s4-cornell.toml --quick
 	@echo
 	@echo "demo images are in $(OUT)/:"
 	@ls -1 $(OUT)/*.png | sed 's/^/  /'

@@ -52,6 +52,14 @@ impl Default for Material {
 }
 
 impl Material {
+    /// The Lambertian albedo ρ the path tracer uses: the Phong diffuse
+    /// reflectance k_d × colour, clamped to [0, 1] per channel so that no
+    /// surface reflects more than it receives.
+    #[inline]
+    pub fn lambert_albedo(&self) -> Color {
+        (self.diffuse * self.color).clamp(Color::ZERO, Color::ONE)
+    }
+
     /// Check ranges; returns a message naming the offending field.
     pub fn validate(&self) -> Result<(), String> {
         let unit = |name: &str, v: f32| {
