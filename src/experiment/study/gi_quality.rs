@@ -31,7 +31,11 @@
 //! for raw values only: with clamping (the default) it is not subtracted,
 //! so b̂² includes the reference's noise, which is at most the
 //! `reference_variance` column (a reference of N spp has about 1/N of a
-//! 1-spp frame's variance). Both estimates
+//! 1-spp frame's variance). Clamping is itself biased at low sample
+//! counts (E[min(X, 1)] < min(E[X], 1) where a pixel's samples straddle 1),
+//! so even an unbiased integrator shows a b̂² that shrinks as spp grows;
+//! this is the error a display shows, and `clamp = 0` removes it. Both
+//! estimates
 //! are unbiased, so b̂² can come out slightly negative for an unbiased
 //! integrator; `bias2` reports it as is. `pixel_variance` is the film's own
 //! estimate of v (each pixel's sample variance / spp, averaged over frames
