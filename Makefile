@@ -29,6 +29,7 @@ demo: build
 	$(RAYLAB) diff $(OUT)/camel-embree.png $(OUT)/camel.png
 	$(RAYLAB) render data/scenes/cornell-box.toml -o $(OUT)/cornell-box.png
 	$(RAYLAB) render data/scenes/aa/zone-plate.toml --sampler adaptive -o $(OUT)/zone-plate-adaptive.png --spp-map $(OUT)/zone-plate-adaptive-spp.png
+	$(RAYLAB) render data/scenes/cornell-box.toml --integrator path:4 --sampler random:64 --accel bvh -o $(OUT)/cornell-box-path.png
 	$(RAYLAB) stats data/scenes/camel.toml --width 200 --height 150 --out $(OUT)/stats-camel
 	$(RAYLAB) validate --mesh data/external/cgal/camel.off --rays 20000 --out $(OUT)/validate-camel
 	$(RAYLAB) experiment analysis/s1-ogss-cost.toml
@@ -37,6 +38,7 @@ demo: build
 	$(RAYLAB) experiment analysis/embree-oracle.toml
 	$(RAYLAB) experiment analysis/embree-speed.toml --quick
 	$(RAYLAB) experiment analysis/aa-images.toml --quick
+	$(RAYLAB) experiment analysis/s4-cornell.toml --quick
 	@echo
 	@echo "demo images are in $(OUT)/:"
 	@ls -1 $(OUT)/*.png | sed 's/^/  /'

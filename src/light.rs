@@ -1,7 +1,11 @@
 //! Lights. Point lights as in S1/S2: a position, a colour and an intensity;
-//! shadows are hard (one shadow ray per light).
+//! shadows are hard (one shadow ray per light). Area lights are emissive
+//! primitives, gathered once per scene into [`AreaLights`] so the path
+//! tracer can sample them (next-event estimation).
 
-use crate::math::{Color, Vec3};
+use crate::math::{luminance, uniform_sphere, uniform_triangle, Color, Vec3};
+use crate::shape::{Primitive, Shape};
+use glam::Vec2;
 
 /// How a point light's irradiance falls off with distance d.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, Default)]
@@ -20,6 +24,10 @@ pub struct PointLight {
     /// Colour × intensity.
     pub radiance: Color,
     pub falloff: Falloff,
+    /// A stand-in for an area light in the Whitted integrator only: the
+    /// path tracer skips it, since it samples the emissive surface itself
+    /// (the Cornell box has both; counting both would double the light).
+    pub whitted_only: bool,
 }
 
 impl PointLight {
@@ -29,6 +37,166 @@ impl PointLight {
         match self.falloff {
             Falloff::None => self.radiance,
             Falloff::InverseSquare => self.radiance / (d * d),
+        }
+    }
+}
+
+/// Emissive surfaces the path tracer samples for next-event estimation:
+/// every triangle and sphere whose material has non-zero emission
+/// (ellipsoids and planes still emit when a path hits them, but are not
+/// sampled: an ellipsoid has no closed-form area, a plane is infinite).
+///
+/// Emitters are chosen in proportion to their power Φ ∝ lum(L_e)·A (two-
+/// sided Lambertian emission: Φ = 2π·A·L_e for every emitter alike, so the
+/// common factor drops out), then a point is chosen uniformly on the chosen
+/// shape. The density of a point y with respect to area is then
+/// p_A(y) = (lum(L_e)·A / W) · (1/A) = lum(L_e) / W, W = Σ lum(L_e,j)·A_j,
+/// which does not depend on which emitter y lies on: [`AreaLights::pdf_area`]
+/// needs only the emission seen at a hit.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AreaLights {
+    /// The sampled emitters, in primitive order.
+    pub emitters: Vec<Emitter>,
+    /// Running sums of the emitters' weights lum(L_e)·A (last = W).
+    cdf: Vec<f64>,
+}
+
+/// One sampled emitter: its primitive, shape and emitted radiance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Emitter {
+    /// Index of the primitive in the scene.
+    pub prim: u32,
+    pub shape: EmitterShape,
+    /// Emitted radiance L_e (the same in every direction, on both sides).
+    pub emission: Color,
+}
+
+/// The geometry of an emitter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EmitterShape {
+    Triangle([Vec3; 3]),
+    Sphere { centre: Vec3, radius: f32 },
+}
+
+impl EmitterShape {
+    fn of(shape: &Shape) -> Option<Self> {
+        match shape {
+            Shape::Triangle(t) => Some(Self::Triangle(t.p)),
+            Shape::Sphere(s) => Some(Self::Sphere {
+                centre: s.centre,
+                radius: s.radius,
+            }),
+            Shape::Ellipsoid(_) | Shape::Plane(_) => None,
+        }
+    }
+
+    /// Surface area.
+    pub fn area(&self) -> f32 {
+        match *self {
+            Self::Triangle([a, b, c]) => 0.5 * (b - a).cross(c - a).length(),
+            Self::Sphere { radius, .. } => 2.0 * std::f32::consts::TAU * radius * radius,
+        }
+    }
+
+    /// A uniformly distributed point on the surface and the unit normal
+    /// there, from two uniform numbers in [0, 1).
+    pub fn sample(&self, u: Vec2) -> (Vec3, Vec3) {
+        match *self {
+            Self::Triangle([a, b, c]) => {
+                let (b1, b2) = uniform_triangle(u);
+                let p = a + b1 * (b - a) + b2 * (c - a);
+                (p, (b - a).cross(c - a).normalize())
+            }
+            Self::Sphere { centre, radius } => {
+                let n = uniform_sphere(u);
+                (centre + radius * n, n)
+            }
+        }
+    }
+}
+
+/// A point sampled on an area light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AreaSample {
+    pub point: Vec3,
+    /// Unit surface normal at the point (either side: emission is two-sided).
+    pub normal: Vec3,
+    pub emission: Color,
+    /// Density of the point with respect to surface area (see
+    /// [`AreaLights`]).
+    pub pdf_area: f32,
+}
+
+impl AreaLights {
+    /// Collect the emitters among `prims`; `emission(object)` is the emitted
+    /// radiance of an object's material.
+    pub fn build(prims: &[Primitive], emission: impl Fn(u32) -> Color) -> Self {
+        let mut lights = Self::default();
+        let mut total = 0.0f64;
+        for (i, prim) in prims.iter().enumerate() {
+            let le = emission(prim.object);
+            let Some(shape) = EmitterShape::of(&prim.shape) else {
+                continue;
+            };
+            let weight = f64::from(luminance(le)) * f64::from(shape.area());
+            if !(weight > 0.0 && weight.is_finite()) {
+                continue;
+            }
+            total += weight;
+            lights.cdf.push(total);
+            lights.emitters.push(Emitter {
+                prim: i as u32,
+                shape,
+                emission: le,
+            });
+        }
+        lights
+    }
+
+    /// No emitter to sample.
+    pub fn is_empty(&self) -> bool {
+        self.emitters.is_empty()
+    }
+
+    /// W = Σ lum(L_e)·A over the emitters.
+    fn total_weight(&self) -> f64 {
+        self.cdf.last().copied().unwrap_or(0.0)
+    }
+
+    /// Pick an emitter with `u_select` ∈ [0, 1) and a point on it with `u`.
+    /// `None` when there are no emitters.
+    #[inline]
+    pub fn sample(&self, u_select: f32, u: Vec2) -> Option<AreaSample> {
+        let total = self.total_weight();
+        if total <= 0.0 {
+            return None;
+        }
+        let target = f64::from(u_select) * total;
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= target)
+            .min(self.cdf.len() - 1);
+        let e = &self.emitters[i];
+        let (point, normal) = e.shape.sample(u);
+        Some(AreaSample {
+            point,
+            normal,
+            emission: e.emission,
+            pdf_area: (f64::from(luminance(e.emission)) / total) as f32,
+        })
+    }
+
+    /// The area density with which [`AreaLights::sample`] picks a point on
+    /// `prim` when that primitive emits `emission`: lum(L_e)/W for sampled
+    /// shapes (triangles, spheres), 0 for shapes never sampled.
+    #[inline]
+    pub fn pdf_area(&self, prim: &Primitive, emission: Color) -> f32 {
+        let total = self.total_weight();
+        match prim.shape {
+            Shape::Triangle(_) | Shape::Sphere(_) if total > 0.0 => {
+                (f64::from(luminance(emission)) / total) as f32
+            }
+            _ => 0.0,
         }
     }
 }

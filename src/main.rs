@@ -4,11 +4,11 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use raylab::accel::AccelKind;
 use raylab::analysis::plot::Heatmap;
-use raylab::analysis::{diff_files, spectrum};
+use raylab::analysis::{compare, diff_files, spectrum};
 use raylab::experiment;
 use raylab::film::Filter;
-use raylab::integrator::{render, Whitted};
-use raylab::io::image::{write_image, ImageFormat};
+use raylab::integrator::IntegratorKind;
+use raylab::io::image::{read_image, write_image, ImageFormat};
 use raylab::io::scene_file::{load_scene, Overrides};
 use raylab::sampler::Sampler;
 use raylab::stats::RayCounts;
@@ -28,10 +28,14 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Render a scene file to an image (PNG: 8-bit sRGB; EXR: linear float).
+    /// Render a scene file to an image (PNG: 8-bit sRGB; EXR: linear float
+    /// with per-pixel statistics).
     ///
     /// Prints the resolution, the rays traced by kind, the time to load the
-    /// scene and to render it, and rays per second.
+    /// scene and to render it, rays per second, and the mean per-pixel
+    /// variance; with --reference also MSE and relMSE against it. An EXR
+    /// output holds channels R, G, B (each pixel's mean), variance.R/G/B
+    /// (the unbiased sample variance of its samples) and count (samples).
     Render(RenderArgs),
     /// Compare an image with a reference (MSE, relMSE, PSNR, ꟻLIP).
     ///
@@ -52,9 +56,15 @@ enum Command {
     /// analysis/s3-bvh-ladder.toml, analysis/bvh-volumes.toml), accel_speed
     /// (raylab's BVH against Embree on identical rays: Mrays/s and their
     /// ratio, analysis/embree-speed.toml), embree_oracle (validation
-    /// against Embree over meshes and quadrics, analysis/embree-oracle.toml)
-    /// and aa_patterns (periodograms of the pixel samplers, as `raylab
-    /// spectrum`, with overlaid radial curves; analysis/aa-patterns.toml).
+    /// against Embree over meshes and quadrics, analysis/embree-oracle.toml),
+    /// aa_images (image-space aliasing: MSE, FLIP and error spectra of
+    /// every sampler and filter against a converged reference, and the
+    /// adaptive sampler's cost; analysis/aa-images.toml), aa_patterns
+    /// (periodograms of the pixel samplers, as `raylab spectrum`, with
+    /// overlaid radial curves; analysis/aa-patterns.toml)
+    /// and gi_quality (time per frame, MSE, relMSE, FLIP, bias and variance
+    /// of a global-illumination integrator against a converged reference,
+    /// analysis/s4-cornell.toml).
     /// Build with --release: timings of a debug build mean little, and raylab
     /// warns when it is one.
     Experiment(ExperimentArgs),
@@ -279,7 +289,24 @@ struct RenderArgs {
     /// `embree[:low|medium|high][+robust]`.
     #[arg(long)]
     accel: Option<AccelKind>,
-    /// Maximum recursion depth (camera rays are depth 0).
+    /// Integrator: `whitted` (recursive Phong/Whitted, the default),
+    /// `direct` (path tracer, direct light only: emission seen plus light
+    /// sampled at the first hit) or `path:K` (Monte Carlo path tracing with
+    /// up to K bounces after the camera hit, i.e. paths of up to K+1
+    /// reflections; MIS between light and BRDF sampling). Samples per pixel
+    /// come from --sampler (e.g. `random:16`, `sobol:64`).
+    #[arg(long, default_value = "whitted", value_parser = IntegratorKind::parse)]
+    integrator: IntegratorKind,
+    /// Path tracer: bounces taken before Russian roulette may end a path
+    /// (default 3), or `off` to trace every path to K bounces.
+    #[arg(long, value_parser = parse_rr_depth)]
+    rr_depth: Option<RrDepth>,
+    /// Reference image (.exr or .png, same size) to report MSE and relMSE
+    /// against.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Maximum recursion depth of the Whitted integrator (camera rays are
+    /// depth 0).
     #[arg(long)]
     max_depth: Option<u32>,
     /// Seed for randomised samplers and integrators.
@@ -288,6 +315,19 @@ struct RenderArgs {
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
+}
+
+/// `--rr-depth`: a bounce count, or `off`.
+#[derive(Clone, Copy, Debug)]
+struct RrDepth(Option<u32>);
+
+fn parse_rr_depth(s: &str) -> Result<RrDepth, String> {
+    if s == "off" {
+        return Ok(RrDepth(None));
+    }
+    s.parse::<u32>()
+        .map(|k| RrDepth(Some(k)))
+        .map_err(|_| format!("`{s}` is not a bounce count (a whole number ≥ 0) or `off`"))
 }
 
 fn main() -> ExitCode {
@@ -349,11 +389,32 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     let t0 = Instant::now();
     let scene = load_scene(&args.scene, &overrides)?;
     let load_s = t0.elapsed().as_secs_f64();
+    let integrator = match args.rr_depth {
+        Some(RrDepth(rr)) => args.integrator.with_rr_start(rr),
+        None => args.integrator,
+    };
+    // Read the reference before rendering, so a bad one fails fast.
+    let reference = args
+        .reference
+        .as_deref()
+        .map(|p| read_image(p).map(|img| (p, img)))
+        .transpose()?;
     let t1 = Instant::now();
-    let (film, RayCounts(counts)) = render::<_, RayCounts>(&scene, &Whitted, args.threads);
+    let (film, RayCounts(counts)) = integrator.render::<RayCounts>(&scene, args.threads);
     let render_s = t1.elapsed().as_secs_f64();
-    write_image(&args.output, &film.image())
-        .with_context(|| format!("writing {}", args.output.display()))?;
+    let image = film.image();
+    let errors = match &reference {
+        None => None,
+        Some((path, img)) => Some(
+            compare(&image, img)
+                .map_err(|e| anyhow::anyhow!("cannot compare with {}: {e}", path.display()))?,
+        ),
+    };
+    match ImageFormat::from_path(&args.output) {
+        Some(ImageFormat::Exr) => film.write_exr(&args.output),
+        _ => write_image(&args.output, &image),
+    }
+    .with_context(|| format!("writing {}", args.output.display()))?;
     if let Some(map) = &args.spp_map {
         let stem = map.with_extension("");
         let mut heat = Heatmap::new(
@@ -369,13 +430,14 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         let threads = args.threads.unwrap_or_else(rayon::current_num_threads);
         println!("scene      {}", args.scene.display());
         println!(
-            "image      {}×{}  {} spp ({})  accel {}  {} threads",
+            "image      {}×{}  {} spp ({})  accel {}  {} threads  integrator {}",
             cam.width,
             cam.height,
             scene.settings.sampler.spp(),
             scene.settings.sampler.name(),
             scene.accel.kind(),
-            threads
+            threads,
+            integrator
         );
         if scene.settings.sampler.is_adaptive() {
             let (mean, max) = film.samples_per_pixel();
@@ -387,18 +449,20 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             println!("filter     {}", scene.settings.filter.name());
         }
         println!(
-            "geometry   {} primitives ({} triangles), {} lights",
+            "geometry   {} primitives ({} triangles), {} point lights, {} emitters sampled",
             scene.prims.len(),
             scene.triangle_count(),
-            scene.lights.len()
+            scene.lights.len(),
+            scene.area_lights.emitters.len()
         );
         println!(
-            "rays       {} total: {} camera, {} shadow, {} reflection, {} refraction",
+            "rays       {} total: {} camera, {} shadow, {} reflection, {} refraction, {} path",
             counts.rays(),
             counts.camera_rays,
             counts.shadow_rays,
             counts.reflection_rays,
-            counts.refraction_rays
+            counts.refraction_rays,
+            counts.path_rays
         );
         println!(
             "time       load {:.3} s, render {:.3} s, {:.2} Mrays/s",
@@ -406,6 +470,24 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             render_s,
             counts.rays() as f64 / render_s / 1e6
         );
+        // The adaptive sampler's leaf values are not independent samples:
+        // it keeps no variance.
+        if !scene.settings.sampler.is_adaptive() {
+            println!(
+                "variance   {:.6e} per sample, {:.6e} of the pixel mean (mean over pixels and channels)",
+                film.mean_sample_variance(),
+                film.mean_variance_of_mean()
+            );
+        }
+        if let (Some((path, _)), Some(m)) = (&reference, &errors) {
+            println!(
+                "error      MSE {:.6e}, relMSE {:.6e}, FLIP {:.6} against {}",
+                m.mse,
+                m.rel_mse,
+                m.flip.mean,
+                path.display()
+            );
+        }
         println!("wrote      {}", args.output.display());
     }
     Ok(())

@@ -196,6 +196,15 @@ impl Material {
         }
     }
 
+    /// The Lambertian albedo ρ the path tracer uses at `p`: the Phong
+    /// diffuse reflectance k_d × colour (textured where the material has a
+    /// texture), clamped to [0, 1] per channel so that no surface reflects
+    /// more than it receives.
+    #[inline]
+    pub fn lambert_albedo(&self, p: Vec3) -> Color {
+        (self.diffuse * self.color_at(p)).clamp(Color::ZERO, Color::ONE)
+    }
+
     /// Check ranges; returns a message naming the offending field.
     pub fn validate(&self) -> Result<(), String> {
         let unit = |name: &str, v: f32| {

@@ -5,7 +5,7 @@
 use crate::accel::{Accel, AccelKind, Accelerator};
 use crate::camera::Camera;
 use crate::film::Filter;
-use crate::light::PointLight;
+use crate::light::{AreaLights, PointLight};
 use crate::material::Material;
 use crate::math::{Color, Ray, Vec3};
 use crate::sampler::Sampler;
@@ -77,6 +77,8 @@ pub struct Scene {
     pub unbounded: Vec<u32>,
     pub meshes: Vec<MeshShading>,
     pub accel: Accelerator,
+    /// The emissive triangles and spheres, for light sampling.
+    pub area_lights: AreaLights,
 }
 
 impl Scene {
@@ -96,6 +98,9 @@ impl Scene {
         let (bounded, unbounded): (Vec<u32>, Vec<u32>) =
             (0..prims.len() as u32).partition(|&i| prims[i as usize].bounds().is_some());
         let accel = Accelerator::build(accel, &prims, bounded)?;
+        let area_lights = AreaLights::build(&prims, |object| {
+            materials[objects[object as usize].material as usize].emission
+        });
         Ok(Self {
             camera,
             settings,
@@ -106,6 +111,7 @@ impl Scene {
             unbounded,
             meshes,
             accel,
+            area_lights,
         })
     }
 

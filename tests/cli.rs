@@ -168,6 +168,66 @@ fn bad_arguments_fail_cleanly() {
     );
 }
 
+/// A bad integrator name or roulette depth fails before anything is
+/// written, naming the accepted forms.
+#[test]
+fn bad_integrator_arguments_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "s.toml", GOOD);
+    let out = dir.path().join("out.png");
+    for (args, expect) in [
+        (vec!["--integrator", "pathtracer"], "path:K"),
+        (vec!["--integrator", "path:-1"], "0..="),
+        (vec!["--rr-depth", "soon"], "off"),
+    ] {
+        let mut all = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        all.extend(args);
+        let o = raylab(&all);
+        assert!(
+            !o.status.success() && stderr(&o).contains(expect),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!out.exists());
+    }
+    // A reference of another size is an error, and nothing is written.
+    let reference = dir.path().join("ref.png");
+    let small = write(
+        dir.path(),
+        "small.toml",
+        &GOOD.replace("width = 16", "width = 8"),
+    );
+    assert!(raylab(&[
+        "render",
+        small.to_str().unwrap(),
+        "-o",
+        reference.to_str().unwrap()
+    ])
+    .status
+    .success());
+    let o = raylab(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--integrator",
+        "direct",
+        "--reference",
+        reference.to_str().unwrap(),
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("sizes differ"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+}
+
 #[test]
 fn help_documents_every_render_option() {
     let o = raylab(&["render", "--help"]);
@@ -181,6 +241,9 @@ fn help_documents_every_render_option() {
         "--accel",
         "--max-depth",
         "--seed",
+        "--integrator",
+        "--rr-depth",
+        "--reference",
     ] {
         assert!(text.contains(opt), "--help lacks {opt}");
     }

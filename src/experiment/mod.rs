@@ -122,6 +122,11 @@
 //! every counter of [`crate::stats::Counters::named`], `rays`,
 //! `rays_per_s` (rays / median time) and `ns_per_sample`.
 //!
+//! `gi_quality` ([`study::gi_quality`]): time per frame, MSE, relMSE,
+//! ꟻLIP, bias² and variance of a global-illumination integrator against a
+//! converged reference (S4's Cornell-box comparison); its parameters and
+//! columns are documented in its module.
+//!
 //! Timing: a warning is printed when the binary was built without
 //! optimisations; each run does `warmup` untimed renders and `repeats`
 //! timed ones, and reports each time and their median, minimum and

@@ -6,16 +6,23 @@
 //! loop, so there are no atomics or locks on the hot path, and because every
 //! sample is a pure function of (pixel, sample index, seed) the image is the
 //! same bit for bit on any number of threads.
+//!
+//! [`IntegratorKind`] names the integrators a user can pick (`whitted`,
+//! `direct`, `path:K`) and renders with the chosen one, dispatching once
+//! per render so every ray runs monomorphised code.
 
 pub mod adaptive;
+pub mod path;
 pub mod whitted;
 
+pub use path::PathTracer;
 pub use whitted::Whitted;
 
 use crate::film::{Film, FilmSample, Filter, PixelStats};
-use crate::math::{Color, Ray};
+use crate::math::{Color, Ray, Vec3};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
+use crate::shape::Hit;
 use crate::stats::{Counters, RenderStats, Stats};
 use glam::Vec2;
 use rayon::prelude::*;
@@ -39,6 +46,108 @@ pub trait Integrator: Sync {
         ctx: &SampleContext,
         stats: &mut S,
     ) -> Color;
+}
+
+/// Whether `target` is visible from `hit`: one shadow ray (counted as
+/// [`crate::stats::RayKind::Shadow`]) from the hit point, offset to the
+/// side `dir` leaves on, stopping ε short of the target (see
+/// [`whitted`]'s module docs for ε). `dir` is the unit direction towards
+/// `target`.
+#[inline]
+pub fn visible<S: Stats>(scene: &Scene, hit: &Hit, dir: Vec3, target: Vec3, stats: &mut S) -> bool {
+    let origin = whitted::offset_origin(hit, dir);
+    let to_target = target - origin;
+    let len = to_target.length();
+    stats.ray(crate::stats::RayKind::Shadow);
+    let shadow = Ray::new(origin, to_target / len);
+    !scene.occluded(&shadow, len * (1.0 - whitted::OFFSET_SCALE), stats)
+}
+
+/// The integrators a render can use, as named on the command line and in
+/// manifests: `whitted`, `direct` (path tracing with no bounce: emission
+/// seen plus light sampled at the first hit) and `path:K` (up to K bounces
+/// after the camera hit; see [`path`] for what a bounce is).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IntegratorKind {
+    Whitted,
+    Direct,
+    Path(PathTracer),
+}
+
+/// The most bounces `path:K` accepts (a typo guard; Russian roulette ends
+/// nearly every path long before).
+pub const MAX_BOUNCES: u32 = 1024;
+
+impl IntegratorKind {
+    /// Parse `whitted`, `direct` or `path:K` (K in 0..=[`MAX_BOUNCES`]).
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s.split_once(':') {
+            None if s == "whitted" => Ok(Self::Whitted),
+            None if s == "direct" => Ok(Self::Direct),
+            Some(("path", k)) => match k.parse::<u32>() {
+                Ok(k) if k <= MAX_BOUNCES => Ok(Self::Path(PathTracer::new(k))),
+                _ => Err(format!(
+                    "path bounce count must be an integer in 0..={MAX_BOUNCES}, got `{k}`"
+                )),
+            },
+            _ => Err(format!(
+                "unknown integrator `{s}` (expected `whitted`, `direct` or `path:K`, \
+                 K = bounces after the camera hit, e.g. `path:4`)"
+            )),
+        }
+    }
+
+    /// The name it parses from (`whitted`, `direct`, `path:4`).
+    pub fn name(&self) -> String {
+        match self {
+            Self::Whitted => "whitted".into(),
+            Self::Direct => "direct".into(),
+            Self::Path(p) => format!("path:{}", p.max_bounces),
+        }
+    }
+
+    /// The path tracer this kind runs, if it is one (`direct` is the path
+    /// tracer with no bounce).
+    pub fn path_tracer(&self) -> Option<PathTracer> {
+        match *self {
+            Self::Whitted => None,
+            Self::Direct => Some(PathTracer::new(0)),
+            Self::Path(p) => Some(p),
+        }
+    }
+
+    /// Set the bounce count after which Russian roulette starts (`None`:
+    /// never); no effect on `whitted` and `direct`.
+    pub fn with_rr_start(mut self, rr_start: Option<u32>) -> Self {
+        if let Self::Path(p) = &mut self {
+            p.rr_start = rr_start;
+        }
+        self
+    }
+
+    /// Render the scene with this integrator (see [`render`]).
+    pub fn render<S>(&self, scene: &Scene, threads: Option<usize>) -> (Film, S)
+    where
+        S: RenderStats,
+    {
+        match self.path_tracer() {
+            None => render(scene, &Whitted, threads),
+            Some(p) => render(scene, &p, threads),
+        }
+    }
+}
+
+impl std::str::FromStr for IntegratorKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::parse(s)
+    }
+}
+
+impl std::fmt::Display for IntegratorKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
+    }
 }
 
 /// Render every pixel of the scene's camera with the scene's sampler and

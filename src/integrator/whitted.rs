@@ -143,12 +143,7 @@ pub fn trace<S: Stats>(
         if n.dot(l) <= 0.0 || hit.geometric_normal.dot(l) <= 0.0 {
             continue;
         }
-        let origin = offset_origin(&hit, l);
-        let to_light = light.position - origin;
-        let shadow_len = to_light.length();
-        stats.ray(RayKind::Shadow);
-        let shadow = Ray::new(origin, to_light / shadow_len);
-        if scene.occluded(&shadow, shadow_len * (1.0 - OFFSET_SCALE), stats) {
+        if !super::visible(scene, &hit, l, light.position, stats) {
             continue;
         }
         let e = light.arriving(dist);

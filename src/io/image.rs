@@ -64,6 +64,117 @@ pub fn write_image(path: &Path, img: &LinearImage) -> anyhow::Result<()> {
     })
 }
 
+/// The samples of one channel of an EXR file written by
+/// [`write_exr_channels`], row-major, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ChannelData {
+    F32(Vec<f32>),
+    U32(Vec<u32>),
+}
+
+impl ChannelData {
+    fn len(&self) -> usize {
+        match self {
+            Self::F32(v) => v.len(),
+            Self::U32(v) => v.len(),
+        }
+    }
+}
+
+/// Write named channels of `width` × `height` samples to an OpenEXR file
+/// (one layer, lossless ZIP compression), atomically. Channel names follow
+/// the OpenEXR convention: `R`, `G`, `B` for colour, `layer.R` for a
+/// layer's colour (e.g. `variance.R`); readers such as `image` find R, G, B
+/// and ignore the rest.
+pub fn write_exr_channels(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: Vec<(&str, ChannelData)>,
+) -> anyhow::Result<()> {
+    use exr::prelude::*;
+    for (name, data) in &channels {
+        anyhow::ensure!(
+            data.len() == width * height,
+            "EXR channel `{name}` has {} samples, expected {width}×{height}",
+            data.len()
+        );
+    }
+    let list = channels
+        .into_iter()
+        .map(|(name, data)| {
+            let samples = match data {
+                ChannelData::F32(v) => FlatSamples::F32(v),
+                ChannelData::U32(v) => FlatSamples::U32(v),
+            };
+            AnyChannel::new(name, samples)
+        })
+        .collect();
+    let layer = Layer::new(
+        (width, height),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    write_atomically(path, |tmp| {
+        Image::from_layer(layer)
+            .write()
+            .to_file(tmp)
+            .map_err(|e| anyhow::anyhow!("{}: cannot write EXR: {e}", path.display()))
+    })
+}
+
+/// Every channel of an EXR layer, as read by [`read_exr_channels`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExrChannels {
+    pub width: usize,
+    pub height: usize,
+    /// (name, samples row-major) in the file's (alphabetical) order.
+    pub channels: Vec<(String, Vec<f32>)>,
+}
+
+impl ExrChannels {
+    /// The samples of the channel called `name`.
+    pub fn get(&self, name: &str) -> Option<&[f32]> {
+        self.channels
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
+    }
+}
+
+/// Read every channel of an EXR file's first layer, by name, as f32
+/// (unsigned-integer channels are converted exactly up to 2²⁴).
+pub fn read_exr_channels(path: &Path) -> Result<ExrChannels, InputError> {
+    use exr::prelude::*;
+    let img = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| InputError::file(path, e.to_string()))?;
+    let size = img.layer_data.size;
+    let channels = img
+        .layer_data
+        .channel_data
+        .list
+        .iter()
+        .map(|c| {
+            (
+                c.name.to_string(),
+                c.sample_data.values_as_f32().collect::<Vec<f32>>(),
+            )
+        })
+        .collect();
+    Ok(ExrChannels {
+        width: size.width(),
+        height: size.height(),
+        channels,
+    })
+}
+
 /// Read a PNG (decoded from sRGB to linear) or EXR (taken as linear) into a
 /// linear RGB image. Alpha is dropped.
 pub fn read_image(path: &Path) -> Result<LinearImage, InputError> {

@@ -198,6 +198,10 @@ pub struct LightDef {
     pub intensity: f32,
     #[serde(default)]
     pub falloff: Falloff,
+    /// Used by the Whitted integrator only (a stand-in for an emissive
+    /// surface, which the path tracer samples instead).
+    #[serde(default)]
+    pub whitted_only: bool,
 }
 
 fn white() -> Color {
@@ -387,6 +391,7 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
             position: d.position,
             radiance,
             falloff: d.falloff,
+            whitted_only: d.whitted_only,
         });
     }
 

@@ -13,6 +13,7 @@ pub mod accel_cost;
 pub mod accel_speed;
 #[cfg(feature = "embree")]
 pub mod embree_oracle;
+pub mod gi_quality;
 pub mod render_cost;
 
 use super::data::Table;
@@ -30,6 +31,7 @@ pub const KINDS: &[&str] = &[
     #[cfg(feature = "embree")]
     "embree_oracle",
     "aa_patterns",
+    "gi_quality",
 ];
 
 /// The study for a manifest `kind`.
@@ -42,6 +44,7 @@ pub fn find(kind: &str) -> Option<&'static dyn Study> {
         #[cfg(feature = "embree")]
         "embree_oracle" => Some(&embree_oracle::EmbreeOracle),
         "aa_patterns" => Some(&aa_patterns::AaPatterns),
+        "gi_quality" => Some(&gi_quality::GiQuality),
         _ => None,
     }
 }

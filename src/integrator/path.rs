@@ -1,0 +1,277 @@
+//! Monte Carlo path tracing (Kajiya 1986) for Lambertian surfaces, with
+//! next-event estimation and multiple importance sampling.
+//!
+//! Every surface reflects as a Lambertian BRDF f = ρ/π whose albedo ρ is the
+//! Phong material's diffuse part, k_d × colour clamped to [0, 1]
+//! ([`crate::material::Material::lambert_albedo`]); specular, mirror and glass terms are
+//! ignored. Emission is two-sided and the same in every direction (a
+//! material's `emission` is the radiance L_e). Rays that leave the scene
+//! return the background colour (an unsampled, uniform environment).
+//!
+//! **Bounces.** The camera ray's hit x₁ is not a bounce. A *bounce* is a
+//! direction sampled from the BRDF at a vertex to continue the path: with
+//! `max_bounces = K` the path has vertices x₁ … x_{K+1}, and the image holds
+//! every light path with at most K + 1 reflections, i.e. direct light plus
+//! K indirect bounces. `K = 0` is direct lighting only (S4's "direct
+//! only"); S4's "1 spp 4 bounces" is K = 4 at one sample per pixel and
+//! "2 spp 1 bounce" K = 1 at two. As in pbrt's `PathIntegrator`, the last
+//! vertex still traces one BRDF ray, whose hit only contributes the
+//! emission it sees (the BRDF-sampling half of that vertex's MIS pair), so
+//! a path of K bounces traces K + 1 path rays plus its shadow rays.
+//!
+//! **Light sampling.** At each vertex: one shadow ray to each point light
+//! (a delta light, reachable by light sampling only) and one to a point on
+//! an emissive triangle or sphere ([`AreaLights`](crate::light::AreaLights):
+//! chosen by power, uniform on the shape). Area-light samples and emitters
+//! hit by BRDF-sampled rays are combined by Veach's power heuristic (β = 2,
+//! one sample each): w_light = p_l² / (p_l² + p_b²), w_brdf = p_b² / (p_l² +
+//! p_b²), with p_l = p_A·d²/|cos θ_l| (the light's area density turned into
+//! solid angle) and p_b = cos θ/π. Emitters that are never sampled
+//! (ellipsoids, planes) get weight 1 when a BRDF ray finds them.
+//!
+//! **Point lights.** A point light's `color × intensity` is taken as its
+//! radiant intensity divided by π, I = π·c·i, so a Lambertian surface of
+//! albedo ρ lit from distance d at angle θ reflects
+//! L = (ρ/π)·I·falloff(d)·cos θ = ρ·c·i·falloff(d)·cos θ: exactly the
+//! Whitted integrator's diffuse term k_d·C·E·(n·l). Lights flagged
+//! `whitted_only` (stand-ins for an emissive surface) are skipped.
+//!
+//! **Russian roulette.** Once `rr_start` bounces have been taken, a path
+//! continues with probability q = min(1, max channel of the throughput β)
+//! and β is divided by q when it does: E[β'] = q·β/q = β, so the estimator
+//! stays unbiased (Arvo & Kirk 1990).
+//!
+//! **Random numbers.** Vertex i of sample j of pixel (x, y) draws from a
+//! SplitMix64 stream keyed by (seed, pixel, j, i); its k-th number is
+//! dimension k: light choice, two for the light point, two for the BRDF
+//! direction, one for Russian roulette. Every vertex draws all six whether
+//! or not it uses them, so a sample's numbers never depend on thread count,
+//! on the light list, or on what earlier vertices did.
+
+use super::{visible, Integrator, SampleContext};
+use crate::light::AreaSample;
+use crate::math::{cosine_hemisphere, orthonormal_basis, Color, Ray, SplitMix64, Vec3};
+use crate::scene::Scene;
+use crate::shape::Hit;
+use crate::stats::{RayKind, Stats};
+use glam::Vec2;
+use std::f32::consts::FRAC_1_PI;
+
+/// Bounces before Russian roulette starts, by default: the first bounces
+/// carry most of the light, and cutting them early adds variance for
+/// little saved time.
+pub const DEFAULT_RR_START: u32 = 3;
+
+/// How area lights are sampled. [`LightStrategy::Mis`] is what renders use;
+/// the other two exist to check that all three agree in expectation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightStrategy {
+    /// Light sampling and BRDF sampling, combined by the power heuristic.
+    #[default]
+    Mis,
+    /// Light sampling only: emitters that light sampling can reach add
+    /// nothing when a BRDF-sampled ray hits them.
+    LightOnly,
+    /// BRDF sampling only: no shadow rays to area lights (point lights
+    /// still get theirs, being reachable no other way).
+    BsdfOnly,
+}
+
+/// The path tracer's settings (the scene supplies the rest).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PathTracer {
+    /// Bounces after the camera hit (0 = direct light only; see the module
+    /// docs).
+    pub max_bounces: u32,
+    /// Russian roulette once this many bounces have been taken; `None`
+    /// never (paths run to `max_bounces`).
+    pub rr_start: Option<u32>,
+    pub strategy: LightStrategy,
+}
+
+impl PathTracer {
+    /// Up to `max_bounces` bounces, MIS, Russian roulette after
+    /// [`DEFAULT_RR_START`] bounces.
+    pub fn new(max_bounces: u32) -> Self {
+        Self {
+            max_bounces,
+            rr_start: Some(DEFAULT_RR_START),
+            strategy: LightStrategy::Mis,
+        }
+    }
+}
+
+/// Numbers drawn per vertex (see the module docs).
+const DIMS_PER_VERTEX: usize = 6;
+
+/// The random numbers of vertex `bounce` of the sample `ctx`.
+#[inline]
+fn vertex_numbers(ctx: &SampleContext, bounce: u32) -> [f32; DIMS_PER_VERTEX] {
+    // A salt keeps these streams apart from the pixel sampler's, which are
+    // keyed by (seed, pixel, sample index) through the same hash.
+    const PATH_SALT: u64 = 0x7061_7468_7472_6163; // "pathtrac"
+    let pixel = (u64::from(ctx.py) << 32) | u64::from(ctx.px);
+    let sample = (u64::from(ctx.index) << 32) | u64::from(bounce);
+    let key = ctx.seed ^ SplitMix64::mix(pixel ^ SplitMix64::mix(sample ^ PATH_SALT));
+    let mut rng = SplitMix64(SplitMix64::mix(key));
+    std::array::from_fn(|_| rng.next_f32())
+}
+
+/// Veach's power heuristic (β = 2) for one sample from each of two
+/// strategies: the weight of the strategy with density `a`.
+#[inline]
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 {
+        a2 / (a2 + b2)
+    } else {
+        0.0
+    }
+}
+
+impl Integrator for PathTracer {
+    fn radiance<S: Stats>(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        ctx: &SampleContext,
+        stats: &mut S,
+    ) -> Color {
+        let set = &scene.settings;
+        stats.ray(RayKind::Camera);
+        let Some(mut hit) = scene.intersect(ray, set.max_distance, stats) else {
+            return set.background;
+        };
+        // Emission seen directly has no other strategy to share with.
+        let mut radiance = scene.material(&hit).emission;
+        let mut beta = Color::ONE;
+        for bounce in 0..=self.max_bounces {
+            let albedo = scene.material(&hit).lambert_albedo(hit.point);
+            if albedo == Color::ZERO {
+                break;
+            }
+            let u = vertex_numbers(ctx, bounce);
+            let n = hit.shading_normal;
+            radiance += beta * albedo * self.point_lights(scene, &hit, stats);
+            if self.strategy != LightStrategy::BsdfOnly {
+                if let Some(s) = scene.area_lights.sample(u[0], Vec2::new(u[1], u[2])) {
+                    radiance += beta * albedo * self.area_light(scene, &hit, &s, stats);
+                }
+            }
+
+            // Cosine-weighted BRDF sample: f·cos θ / p = (ρ/π)·cos θ / (cos θ/π) = ρ.
+            let local = cosine_hemisphere(Vec2::new(u[3], u[4]));
+            let (t, b) = orthonormal_basis(n);
+            let wi = (local.x * t + local.y * b + local.z * n).normalize();
+            if local.z <= 0.0 || hit.geometric_normal.dot(wi) <= 0.0 {
+                // Below the true surface (only with interpolated normals).
+                break;
+            }
+            let pdf_brdf = local.z * FRAC_1_PI;
+            beta *= albedo;
+            let next_ray = Ray::new(super::whitted::offset_origin(&hit, wi), wi);
+            stats.ray(RayKind::Path);
+            let Some(next) = scene.intersect(&next_ray, set.max_distance, stats) else {
+                radiance += beta * set.background;
+                break;
+            };
+            let le = scene.material(&next).emission;
+            if le != Color::ZERO {
+                radiance += beta * le * self.brdf_hit_weight(scene, &next, le, wi, pdf_brdf);
+            }
+            if bounce == self.max_bounces {
+                break;
+            }
+            if self.rr_start.is_some_and(|s| bounce + 1 >= s) {
+                let q = beta.max_element().min(1.0);
+                if u[5] >= q {
+                    break;
+                }
+                beta /= q;
+            }
+            hit = next;
+        }
+        radiance
+    }
+}
+
+impl PathTracer {
+    /// Σ over point lights of π·arriving(d)·cos θ·V: the reflected radiance
+    /// divided by the albedo (f·I = (ρ/π)·π·c·i; see the module docs).
+    fn point_lights<S: Stats>(&self, scene: &Scene, hit: &Hit, stats: &mut S) -> Color {
+        let n = hit.shading_normal;
+        let mut sum = Color::ZERO;
+        for light in scene.lights.iter().filter(|l| !l.whitted_only) {
+            let to_light = light.position - hit.point;
+            let dist = to_light.length();
+            let l = to_light / dist;
+            if n.dot(l) <= 0.0 || hit.geometric_normal.dot(l) <= 0.0 {
+                continue;
+            }
+            if visible(scene, hit, l, light.position, stats) {
+                sum += light.arriving(dist) * n.dot(l);
+            }
+        }
+        // The π of I = π·c·i cancels the 1/π of the BRDF.
+        sum
+    }
+
+    /// One area-light sample's contribution divided by the albedo:
+    /// L_e·cos θ·w/(π·p_l), with the MIS weight w (1 for light-only).
+    fn area_light<S: Stats>(
+        &self,
+        scene: &Scene,
+        hit: &Hit,
+        s: &AreaSample,
+        stats: &mut S,
+    ) -> Color {
+        let n = hit.shading_normal;
+        let to = s.point - hit.point;
+        let d2 = to.length_squared();
+        let wi = to / d2.sqrt();
+        let cos_x = n.dot(wi);
+        let cos_l = s.normal.dot(wi).abs();
+        if cos_x <= 0.0 || hit.geometric_normal.dot(wi) <= 0.0 || cos_l <= 0.0 {
+            return Color::ZERO;
+        }
+        let pdf_light = s.pdf_area * d2 / cos_l;
+        if !(pdf_light > 0.0 && pdf_light.is_finite() && visible(scene, hit, wi, s.point, stats)) {
+            return Color::ZERO;
+        }
+        let w = match self.strategy {
+            LightStrategy::Mis => power_heuristic(pdf_light, cos_x * FRAC_1_PI),
+            _ => 1.0,
+        };
+        s.emission * (cos_x * FRAC_1_PI * w / pdf_light)
+    }
+
+    /// The weight of emission `le` found at `next` by a BRDF-sampled ray of
+    /// direction `wi` and density `pdf_brdf`.
+    fn brdf_hit_weight(
+        &self,
+        scene: &Scene,
+        next: &Hit,
+        le: Color,
+        wi: Vec3,
+        pdf_brdf: f32,
+    ) -> f32 {
+        let pdf_area = scene
+            .area_lights
+            .pdf_area(&scene.prims[next.prim as usize], le);
+        if pdf_area == 0.0 {
+            return 1.0; // not reachable by light sampling
+        }
+        match self.strategy {
+            LightStrategy::BsdfOnly => 1.0,
+            LightStrategy::LightOnly => 0.0,
+            LightStrategy::Mis => {
+                let cos_l = next.geometric_normal.dot(wi).abs();
+                if cos_l <= 0.0 {
+                    return 1.0;
+                }
+                let pdf_light = pdf_area * next.t * next.t / cos_l;
+                power_heuristic(pdf_brdf, pdf_light)
+            }
+        }
+    }
+}
