@@ -50,7 +50,10 @@ enum Command {
     /// analysis/s3-bvh-ladder.toml, analysis/bvh-volumes.toml), accel_speed
     /// (raylab's BVH against Embree on identical rays: Mrays/s and their
     /// ratio, analysis/embree-speed.toml) and embree_oracle (validation
-    /// against Embree over meshes and quadrics, analysis/embree-oracle.toml).
+    /// against Embree over meshes and quadrics, analysis/embree-oracle.toml)
+    /// and floodfill (S4's voxel flood-fill irradiance cache: residual per
+    /// step, grid snapshots, step time, light leaking;
+    /// analysis/floodfill-convergence.toml).
     /// Build with --release: timings of a debug build mean little, and raylab
     /// warns when it is one.
     Experiment(ExperimentArgs),

@@ -11,6 +11,7 @@ pub mod accel_cost;
 pub mod accel_speed;
 #[cfg(feature = "embree")]
 pub mod embree_oracle;
+pub mod floodfill;
 pub mod render_cost;
 
 use super::sweep::{RunPoint, Value};
@@ -25,6 +26,7 @@ pub const KINDS: &[&str] = &[
     "accel_speed",
     #[cfg(feature = "embree")]
     "embree_oracle",
+    "floodfill",
 ];
 
 /// The study for a manifest `kind`.
@@ -35,6 +37,7 @@ pub fn find(kind: &str) -> Option<&'static dyn Study> {
         "accel_speed" => Some(&accel_speed::AccelSpeed),
         #[cfg(feature = "embree")]
         "embree_oracle" => Some(&embree_oracle::EmbreeOracle),
+        "floodfill" => Some(&floodfill::FloodFillStudy),
         _ => None,
     }
 }
