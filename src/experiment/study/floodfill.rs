@@ -7,8 +7,9 @@
 //! gives the median step time, the first step whose max residual is below
 //! `tolerance` × the largest stored value (`converged_step`; empty when it
 //! never is), the final residuals, the mean and max luminance over the
-//! empty voxels, whether the run diverged (non-finite values, or values
-//! that grew by more than 10⁶ over the last half of the steps), and, when
+//! empty voxels, whether the run diverged (non-finite values, or, without
+//! convergence, a largest value that grew 2× over the second half of the
+//! steps), and, when
 //! `lit_box` / `dark_box` are given, the mean luminance of the empty voxels
 //! whose centres lie in each box and their ratio `leak_ratio` (light
 //! leaking through a wall into a room no light reaches directly).
@@ -380,7 +381,10 @@ impl Study for FloodFillStudy {
                 n += 1;
             }
         }
-        let diverged = !finite || (max_at_half > 0.0 && vmax / max_at_half > 1e6);
+        // A converging run is within its tolerance of the fixed point by
+        // then, or close; growing 2× over the second half is divergence.
+        let diverged =
+            !finite || (converged.is_none() && max_at_half > 0.0 && vmax / max_at_half > 2.0);
         let last = residuals.last().copied().unwrap_or_default();
         let step_s = super::median(&times);
         let lit = cfg.lit_box.map_or(f64::NAN, |b| box_mean(&grid, &im, b));
