@@ -16,6 +16,7 @@ pub mod analysis;
 pub mod camera;
 pub mod experiment;
 pub mod film;
+pub mod gi;
 pub mod integrator;
 pub mod io;
 pub mod light;

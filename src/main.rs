@@ -61,10 +61,12 @@ enum Command {
     /// every sampler and filter against a converged reference, and the
     /// adaptive sampler's cost; analysis/aa-images.toml), aa_patterns
     /// (periodograms of the pixel samplers, as `raylab spectrum`, with
-    /// overlaid radial curves; analysis/aa-patterns.toml)
-    /// and gi_quality (time per frame, MSE, relMSE, FLIP, bias and variance
-    /// of a global-illumination integrator against a converged reference,
-    /// analysis/s4-cornell.toml).
+    /// overlaid radial curves; analysis/aa-patterns.toml), gi_quality (time
+    /// per frame, MSE, relMSE, FLIP, bias and variance of a
+    /// global-illumination integrator against a converged reference,
+    /// analysis/s4-cornell.toml) and floodfill (S4's voxel flood-fill
+    /// irradiance cache: residual per step, grid snapshots, step time, light
+    /// leaking; analysis/floodfill-convergence.toml).
     /// Build with --release: timings of a debug build mean little, and raylab
     /// warns when it is one.
     Experiment(ExperimentArgs),

@@ -14,6 +14,7 @@ pub mod accel_speed;
 #[cfg(feature = "embree")]
 pub mod embree_oracle;
 pub mod gi_quality;
+pub mod floodfill;
 pub mod render_cost;
 
 use super::data::Table;
@@ -32,6 +33,7 @@ pub const KINDS: &[&str] = &[
     "embree_oracle",
     "aa_patterns",
     "gi_quality",
+    "floodfill",
 ];
 
 /// The study for a manifest `kind`.
@@ -45,6 +47,7 @@ pub fn find(kind: &str) -> Option<&'static dyn Study> {
         "embree_oracle" => Some(&embree_oracle::EmbreeOracle),
         "aa_patterns" => Some(&aa_patterns::AaPatterns),
         "gi_quality" => Some(&gi_quality::GiQuality),
+        "floodfill" => Some(&floodfill::FloodFillStudy),
         _ => None,
     }
 }
