@@ -159,7 +159,7 @@ impl AreaLights {
     }
 
     /// W = Σ lum(L_e)·A over the emitters.
-    fn total_weight(&self) -> f64 {
+    pub fn total_weight(&self) -> f64 {
         self.cdf.last().copied().unwrap_or(0.0)
     }
 

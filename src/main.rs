@@ -7,7 +7,7 @@ use raylab::analysis::plot::Heatmap;
 use raylab::analysis::{compare, diff_files, spectrum};
 use raylab::experiment;
 use raylab::film::Filter;
-use raylab::integrator::IntegratorKind;
+use raylab::integrator::{IntegratorKind, Prepared};
 use raylab::io::image::{read_image, write_image, ImageFormat};
 use raylab::io::scene_file::{load_scene, Overrides};
 use raylab::sampler::Sampler;
@@ -401,8 +401,15 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         .as_deref()
         .map(|p| read_image(p).map(|img| (p, img)))
         .transpose()?;
+    // Flood fill's cache is built and warmed up here, timed apart from the
+    // frame (one frame = its propagation steps and the render).
+    let mut prepared = integrator
+        .prepare(&scene)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
     let t1 = Instant::now();
-    let (film, RayCounts(counts)) = integrator.render::<RayCounts>(&scene, args.threads);
+    let (film, RayCounts(counts)) = prepared
+        .frame::<RayCounts>(&scene, args.threads)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
     let render_s = t1.elapsed().as_secs_f64();
     let image = film.image();
     let errors = match &reference {
@@ -466,6 +473,18 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             counts.refraction_rays,
             counts.path_rays
         );
+        if let Prepared::FloodFill(ff) = &prepared {
+            let [nx, ny, nz] = ff.cache.dims();
+            println!(
+                "cache      {nx}×{ny}×{nz} voxels of {:.4}, built in {:.3} s, {} steps ({:.3} s \
+                 warm-up, then {} per frame)",
+                ff.cache.voxel_size(),
+                ff.build_s,
+                ff.cache.steps(),
+                ff.warm_s,
+                ff.cache.config().steps_per_frame
+            );
+        }
         println!(
             "time       load {:.3} s, render {:.3} s, {:.2} Mrays/s",
             load_s,

@@ -88,7 +88,7 @@ falloff = "inverse_square"
 fn direct_lighting_from_point_lights_equals_whitted_diffuse() {
     let s = scene(SPHERES_UNDER_LIGHTS);
     let (whitted, _) = render::<_, NoStats>(&s, &Whitted, None);
-    let (direct, _) = IntegratorKind::Direct.render::<NoStats>(&s, None);
+    let (direct, _) = IntegratorKind::Direct.render::<NoStats>(&s, None).unwrap();
     let (mut lit, mut worst) = (0, 0.0f32);
     for (a, b) in whitted.pixels.iter().zip(&direct.pixels) {
         worst = worst.max((a.mean - b.mean).abs().max_element());
@@ -258,14 +258,14 @@ fn russian_roulette_is_unbiased() {
 fn path_tracer_is_deterministic_across_thread_counts() {
     let s = cornell(24, 4);
     let kind = IntegratorKind::parse("path:4").unwrap();
-    let (one, c1) = kind.render::<Counters>(&s, Some(1));
-    let (two, c2) = kind.render::<Counters>(&s, Some(2));
+    let (one, c1) = kind.render::<Counters>(&s, Some(1)).unwrap();
+    let (two, c2) = kind.render::<Counters>(&s, Some(2)).unwrap();
     assert_eq!(one, two);
     assert_eq!(c1, c2);
     // And the seed matters.
     let mut reseeded = s.clone();
     reseeded.settings.seed = 7;
-    let (other, _) = kind.render::<NoStats>(&reseeded, Some(2));
+    let (other, _) = kind.render::<NoStats>(&reseeded, Some(2)).unwrap();
     assert_ne!(one, other);
 }
 

@@ -508,7 +508,8 @@ impl FloodFill {
     /// (facing the side the ray came from). `u` are three uniform numbers
     /// in [0, 1) (only [`Lookup::Hemisphere`] uses them): the result is a
     /// pure function of its arguments. When no empty voxel is found within
-    /// [`MAX_MARCH`] half-voxel steps along `n`, the answer is black.
+    /// [`MAX_MARCH`] half-voxel steps along `n`, the nearest empty voxel in
+    /// front of `p` within two voxels answers; black when there is none.
     pub fn lookup(&self, p: Vec3, n: Vec3, mode: Lookup, u: [f32; 3]) -> Color {
         let h = self.voxel_size;
         let mut q = match mode {
@@ -539,7 +540,40 @@ impl FloodFill {
             }
             q += 0.5 * h * n;
         }
-        Color::ZERO
+        self.nearest_open_in_front(p, n).unwrap_or(Color::ZERO)
+    }
+
+    /// The I of the open voxel nearest to `p` whose centre lies in front
+    /// of it (on the side `n` points to), among the 5×5×5 voxels around
+    /// it: the fallback where marching along the normal stays in solid
+    /// voxels — within a voxel of an edge or corner where two walls meet,
+    /// the march runs along the other wall (without it, a cube room read
+    /// black on a third of its walls).
+    fn nearest_open_in_front(&self, p: Vec3, n: Vec3) -> Option<Color> {
+        let g = ((p - self.origin) / self.voxel_size).floor();
+        let b = [g.x as isize, g.y as isize, g.z as isize];
+        let mut best: Option<(f32, [isize; 3])> = None;
+        for dz in -2..=2isize {
+            for dy in -2..=2isize {
+                for dx in -2..=2isize {
+                    let i = [b[0] + dx, b[1] + dy, b[2] + dz];
+                    if !self.is_open(i) {
+                        continue;
+                    }
+                    let centre = self.origin
+                        + (Vec3::new(i[0] as f32, i[1] as f32, i[2] as f32) + 0.5)
+                            * self.voxel_size;
+                    if (centre - p).dot(n) <= 0.0 {
+                        continue;
+                    }
+                    let d = (centre - p).length_squared();
+                    if !best.is_some_and(|(bd, _)| d >= bd) {
+                        best = Some((d, i));
+                    }
+                }
+            }
+        }
+        best.map(|(_, i)| self.voxel_irradiance([i[0] as usize, i[1] as usize, i[2] as usize]))
     }
 
     /// Trilinear interpolation of the open voxels' I between the eight

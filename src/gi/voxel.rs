@@ -268,11 +268,21 @@ impl VoxelGrid {
     }
 }
 
+/// The half-size of the closed box [bmin, bmax] for overlap tests, grown by
+/// 10⁻⁵ of itself: a surface lying exactly on a voxel face (a wall on the
+/// grid's boundary, as in a box-shaped room) touches the closed box, but
+/// the f32 rounding of the centre and half-size decides that test either
+/// way (it made one wall of a cube room vanish while the opposite wall
+/// stayed). 10⁻⁵ of a voxel is far below any geometry a voxel resolves.
+fn touching_half_size(bmin: Vec3, bmax: Vec3) -> Vec3 {
+    0.5 * (bmax - bmin) * (1.0 + 1e-5)
+}
+
 /// Whether the triangle meets the closed box [bmin, bmax] (separating-axis
 /// theorem, 13 axes; see the module docs).
 pub fn triangle_overlaps_box(t: &Triangle, bmin: Vec3, bmax: Vec3) -> bool {
     let c = 0.5 * (bmin + bmax);
-    let h = 0.5 * (bmax - bmin);
+    let h = touching_half_size(bmin, bmax);
     let v = [t.p[0] - c, t.p[1] - c, t.p[2] - c];
     // A separating axis a: the triangle's projection interval misses the
     // box's, [-r, r] with r = h·|a| (componentwise).
@@ -316,7 +326,7 @@ pub fn sphere_overlaps_box(s: &Sphere, bmin: Vec3, bmax: Vec3) -> bool {
 /// Whether the plane meets the closed box.
 pub fn plane_overlaps_box(p: &Plane, bmin: Vec3, bmax: Vec3) -> bool {
     let c = 0.5 * (bmin + bmax);
-    let h = 0.5 * (bmax - bmin);
+    let h = touching_half_size(bmin, bmax);
     p.normal.dot(c - p.point).abs() <= h.dot(p.normal.abs())
 }
 

@@ -12,9 +12,11 @@
 //! per render so every ray runs monomorphised code.
 
 pub mod adaptive;
+pub mod floodfill;
 pub mod path;
 pub mod whitted;
 
+pub use floodfill::{FloodFillIntegrator, FloodFillSettings};
 pub use path::PathTracer;
 pub use whitted::Whitted;
 
@@ -65,13 +67,37 @@ pub fn visible<S: Stats>(scene: &Scene, hit: &Hit, dir: Vec3, target: Vec3, stat
 
 /// The integrators a render can use, as named on the command line and in
 /// manifests: `whitted`, `direct` (path tracing with no bounce: emission
-/// seen plus light sampled at the first hit) and `path:K` (up to K bounces
-/// after the camera hit; see [`path`] for what a bounce is).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// seen plus light sampled at the first hit), `path:K` (up to K bounces
+/// after the camera hit; see [`path`] for what a bounce is) and
+/// `floodfill[:…]` (one bounce, then S4's voxel cache; see [`floodfill`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum IntegratorKind {
     Whitted,
     Direct,
     Path(PathTracer),
+    FloodFill(FloodFillSettings),
+}
+
+/// An integrator ready to render frames of one scene: for flood fill, with
+/// its cache built and warmed up.
+pub enum Prepared {
+    Plain(IntegratorKind),
+    FloodFill(Box<FloodFillIntegrator>),
+}
+
+impl Prepared {
+    /// Render one frame (flood fill: its propagation steps, then the
+    /// render).
+    pub fn frame<S: RenderStats>(
+        &mut self,
+        scene: &Scene,
+        threads: Option<usize>,
+    ) -> Result<(Film, S), String> {
+        match self {
+            Prepared::Plain(kind) => kind.render(scene, threads),
+            Prepared::FloodFill(ff) => Ok(ff.frame(scene, threads)),
+        }
+    }
 }
 
 /// The most bounces `path:K` accepts (a typo guard; Russian roulette ends
@@ -81,6 +107,9 @@ pub const MAX_BOUNCES: u32 = 1024;
 impl IntegratorKind {
     /// Parse `whitted`, `direct` or `path:K` (K in 0..=[`MAX_BOUNCES`]).
     pub fn parse(s: &str) -> Result<Self, String> {
+        if let Some(rest) = s.strip_prefix("floodfill") {
+            return FloodFillSettings::parse(rest).map(Self::FloodFill);
+        }
         match s.split_once(':') {
             None if s == "whitted" => Ok(Self::Whitted),
             None if s == "direct" => Ok(Self::Direct),
@@ -91,8 +120,8 @@ impl IntegratorKind {
                 )),
             },
             _ => Err(format!(
-                "unknown integrator `{s}` (expected `whitted`, `direct` or `path:K`, \
-                 K = bounces after the camera hit, e.g. `path:4`)"
+                "unknown integrator `{s}` (expected `whitted`, `direct`, `path:K`, \
+                 K = bounces after the camera hit, e.g. `path:4`, or `floodfill[:key=value,…]`)"
             )),
         }
     }
@@ -103,14 +132,26 @@ impl IntegratorKind {
             Self::Whitted => "whitted".into(),
             Self::Direct => "direct".into(),
             Self::Path(p) => format!("path:{}", p.max_bounces),
+            Self::FloodFill(f) => f.name(),
         }
+    }
+
+    /// Get ready to render frames of `scene` (builds the flood-fill cache;
+    /// fails only when the scene cannot be voxelised).
+    pub fn prepare(&self, scene: &Scene) -> Result<Prepared, String> {
+        Ok(match self {
+            Self::FloodFill(f) => {
+                Prepared::FloodFill(Box::new(FloodFillIntegrator::build(scene, *f)?))
+            }
+            other => Prepared::Plain(*other),
+        })
     }
 
     /// The path tracer this kind runs, if it is one (`direct` is the path
     /// tracer with no bounce).
     pub fn path_tracer(&self) -> Option<PathTracer> {
         match *self {
-            Self::Whitted => None,
+            Self::Whitted | Self::FloodFill(_) => None,
             Self::Direct => Some(PathTracer::new(0)),
             Self::Path(p) => Some(p),
         }
@@ -126,14 +167,23 @@ impl IntegratorKind {
     }
 
     /// Render the scene with this integrator (see [`render`]).
-    pub fn render<S>(&self, scene: &Scene, threads: Option<usize>) -> (Film, S)
+    /// Flood fill builds and warms its cache first (see [`Self::prepare`]
+    /// to build it once for many frames); that alone can fail, when the
+    /// scene cannot be voxelised.
+    pub fn render<S>(&self, scene: &Scene, threads: Option<usize>) -> Result<(Film, S), String>
     where
         S: RenderStats,
     {
-        match self.path_tracer() {
-            None => render(scene, &Whitted, threads),
-            Some(p) => render(scene, &p, threads),
-        }
+        Ok(match self {
+            Self::Whitted => render(scene, &Whitted, threads),
+            Self::Direct | Self::Path(_) => {
+                let p = self
+                    .path_tracer()
+                    .expect("direct and path are path tracers");
+                render(scene, &p, threads)
+            }
+            Self::FloodFill(_) => self.prepare(scene)?.frame(scene, threads)?,
+        })
     }
 }
 

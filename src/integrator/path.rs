@@ -137,6 +137,40 @@ impl Integrator for PathTracer {
         ctx: &SampleContext,
         stats: &mut S,
     ) -> Color {
+        self.trace(scene, ray, ctx, stats, None::<&NoEnd>)
+    }
+}
+
+/// What ends a path early at the first bounce's hit instead of going on:
+/// the flood-fill cache ([`super::floodfill`]) reads its stored light there.
+pub trait PathEnd {
+    /// The light leaving `hit` towards the path, divided by the albedo
+    /// there (the caller multiplies by it); `u` are three uniform numbers.
+    fn light_at(&self, hit: &Hit, u: [f32; 3]) -> Color;
+}
+
+/// The `PathEnd` of a plain path tracer (never used).
+pub enum NoEnd {}
+
+impl PathEnd for NoEnd {
+    fn light_at(&self, _: &Hit, _: [f32; 3]) -> Color {
+        match *self {}
+    }
+}
+
+impl PathTracer {
+    /// The radiance along a camera ray. With `end`, the path stops at the
+    /// first bounce's hit x₂: after the emission found there (MIS-weighted
+    /// as usual), x₂ adds albedo × `end.light_at(x₂)` in place of its own
+    /// light sampling and further bounces.
+    pub fn trace<S: Stats, E: PathEnd>(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        ctx: &SampleContext,
+        stats: &mut S,
+        end: Option<&E>,
+    ) -> Color {
         let set = &scene.settings;
         stats.ray(RayKind::Camera);
         let Some(mut hit) = scene.intersect(ray, set.max_distance, stats) else {
@@ -179,6 +213,13 @@ impl Integrator for PathTracer {
             if le != Color::ZERO {
                 radiance += beta * le * self.brdf_hit_weight(scene, &next, le, wi, pdf_brdf);
             }
+            if let Some(end) = end {
+                // The next vertex's numbers, which it no longer needs.
+                let v = vertex_numbers(ctx, bounce + 1);
+                let albedo = scene.material(&next).lambert_albedo(next.point);
+                radiance += beta * albedo * end.light_at(&next, [v[0], v[1], v[2]]);
+                break;
+            }
             if bounce == self.max_bounces {
                 break;
             }
@@ -193,12 +234,10 @@ impl Integrator for PathTracer {
         }
         radiance
     }
-}
 
-impl PathTracer {
     /// Σ over point lights of π·arriving(d)·cos θ·V: the reflected radiance
     /// divided by the albedo (f·I = (ρ/π)·π·c·i; see the module docs).
-    fn point_lights<S: Stats>(&self, scene: &Scene, hit: &Hit, stats: &mut S) -> Color {
+    pub(super) fn point_lights<S: Stats>(&self, scene: &Scene, hit: &Hit, stats: &mut S) -> Color {
         let n = hit.shading_normal;
         let mut sum = Color::ZERO;
         for light in scene.lights.iter().filter(|l| !l.whitted_only) {
@@ -218,7 +257,7 @@ impl PathTracer {
 
     /// One area-light sample's contribution divided by the albedo:
     /// L_e·cos θ·w/(π·p_l), with the MIS weight w (1 for light-only).
-    fn area_light<S: Stats>(
+    pub(super) fn area_light<S: Stats>(
         &self,
         scene: &Scene,
         hit: &Hit,

@@ -273,7 +273,9 @@ fn reference_image(
                 let mut s = scene.clone();
                 s.settings.sampler = Sampler::Random { n: *spp };
                 s.settings.seed = REFERENCE_SEED;
-                let (film, _) = integrator.render::<NoStats>(&s, None);
+                let (film, _) = integrator
+                    .render::<NoStats>(&s, None)
+                    .map_err(anyhow::Error::msg)?;
                 film.write_exr(&path)?;
             }
             path
@@ -336,6 +338,7 @@ impl Study for GiQuality {
             "frames",
             "threads",
             "time_per_frame_s",
+            "setup_s",
             "time_min_s",
             "time_max_s",
             "mse",
@@ -378,9 +381,19 @@ impl Study for GiQuality {
             reference.dim().0
         );
 
+        // Flood fill builds and warms its cache once, before the frames
+        // (reported as `setup_s`); each frame then runs its propagation
+        // steps and the render.
+        let setup = Instant::now();
+        let mut prepared = cfg.integrator.prepare(&scene).map_err(anyhow::Error::msg)?;
+        let setup_s = setup.elapsed().as_secs_f64();
         for _ in 0..ctx.settings.warmup {
             scene.settings.seed = cfg.seed;
-            std::hint::black_box(cfg.integrator.render::<NoStats>(&scene, None));
+            std::hint::black_box(
+                prepared
+                    .frame::<NoStats>(&scene, None)
+                    .map_err(anyhow::Error::msg)?,
+            );
         }
         let frames = cfg.frames as usize;
         let mut times = Vec::with_capacity(frames);
@@ -391,7 +404,9 @@ impl Study for GiQuality {
             scene.settings.seed = cfg.seed + f as u64;
             // Timed as `Timings::measure` does: the render alone.
             let start = Instant::now();
-            let (film, _) = cfg.integrator.render::<NoStats>(&scene, None);
+            let (film, _) = prepared
+                .frame::<NoStats>(&scene, None)
+                .map_err(anyhow::Error::msg)?;
             times.push(start.elapsed().as_secs_f64());
             let img = clamped(film.image());
             let m = compare(&img, &reference)?;
@@ -420,7 +435,9 @@ impl Study for GiQuality {
         let bias2 = mse_of_mean - variance / nf - ref_noise;
 
         scene.settings.seed = cfg.seed;
-        let (_, counters) = cfg.integrator.render::<Counters>(&scene, None);
+        let (_, counters) = prepared
+            .frame::<Counters>(&scene, None)
+            .map_err(anyhow::Error::msg)?;
         let pixels = f64::from(w) * f64::from(h);
 
         if let Some((frame, map)) = first {
@@ -468,6 +485,7 @@ impl Study for GiQuality {
             ("frames".into(), frames.to_string()),
             ("threads".into(), rayon::current_num_threads().to_string()),
             ("time_per_frame_s".into(), seconds_cell(median(&times))),
+            ("setup_s".into(), seconds_cell(setup_s)),
             ("time_min_s".into(), seconds_cell(times_sorted[0])),
             ("time_max_s".into(), seconds_cell(times_sorted[frames - 1])),
             ("mse".into(), e(mse_frames)),

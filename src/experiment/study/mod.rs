@@ -13,8 +13,8 @@ pub mod accel_cost;
 pub mod accel_speed;
 #[cfg(feature = "embree")]
 pub mod embree_oracle;
-pub mod gi_quality;
 pub mod floodfill;
+pub mod gi_quality;
 pub mod render_cost;
 
 use super::data::Table;
