@@ -21,10 +21,10 @@
 //! log scale shared by all snapshots of the run (solid voxels grey).
 
 use super::{
-    int_param, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study, StudySettings,
+    bool_param, int_param, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study, StudySettings,
 };
 use crate::analysis::plot::{ImageGrid, LineChart, Palette, Scale, Series, SeriesStyle};
-use crate::experiment::sweep::{RunPoint, Value};
+use crate::experiment::sweep::RunPoint;
 use crate::gi::{Averaging, FloodFill, FloodFillConfig, GridSpec, Residual, Threads, VoxelGrid};
 use crate::io::scene_file::{load_scene, Overrides};
 use crate::math::{luminance, srgb_decode, Vec3};
@@ -132,17 +132,6 @@ fn float_param(run: &RunPoint, name: &str) -> Result<Option<f64>, ParamError> {
             .filter(|x| x.is_finite())
             .map(Some)
             .ok_or_else(|| ParamError::new(name, format!("must be a finite number, got {v}"))),
-    }
-}
-
-fn bool_param(run: &RunPoint, name: &str) -> Result<Option<bool>, ParamError> {
-    match run.get(name) {
-        None => Ok(None),
-        Some(Value::Bool(b)) => Ok(Some(*b)),
-        Some(v) => Err(ParamError::new(
-            name,
-            format!("must be true or false, got {} ({v})", v.type_name()),
-        )),
     }
 }
 
