@@ -504,6 +504,7 @@ impl FloodFill {
         [g.x as isize, g.y as isize, g.z as isize]
     }
 
+    // ANCHOR: lookup
     /// Irradiance for a secondary-ray hit at `p` with unit normal `n`
     /// (facing the side the ray came from). `u` are three uniform numbers
     /// in [0, 1) (only [`Lookup::Hemisphere`] uses them): the result is a
@@ -541,6 +542,7 @@ impl FloodFill {
         }
         Color::ZERO
     }
+    // ANCHOR_END: lookup
 
     /// Trilinear interpolation of the open voxels' I between the eight
     /// voxel centres around `q`; `None` when all eight are solid or out.
@@ -599,6 +601,7 @@ impl Kernel<'_> {
         let n = px - 2;
         let clamp = self.clamp;
         let base = z * sz;
+        // ANCHOR: floodfill_update
         let (mut sq, mut max) = (0.0f64, 0.0f64);
         for (c, out) in out.into_iter().enumerate() {
             let cur = self.cur[c];
@@ -633,6 +636,7 @@ impl Kernel<'_> {
                 let v = self.gain[i] * (sum + (w.source[c] + w.bounce[c] * cur[i]));
                 out[i - base] = v.min(clamp);
             }
+            // ANCHOR_END: floodfill_update
             if RESIDUAL {
                 for y in 1..py - 1 {
                     let i = base + y * px + 1;

@@ -117,6 +117,7 @@ fn vertex_numbers(ctx: &SampleContext, bounce: u32) -> [f32; DIMS_PER_VERTEX] {
     std::array::from_fn(|_| rng.next_f32())
 }
 
+// ANCHOR: power_heuristic
 /// Veach's power heuristic (β = 2) for one sample from each of two
 /// strategies: the weight of the strategy with density `a`.
 #[inline]
@@ -128,8 +129,10 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
         0.0
     }
 }
+// ANCHOR_END: power_heuristic
 
 impl Integrator for PathTracer {
+    // ANCHOR: path_radiance
     fn radiance<S: Stats>(
         &self,
         scene: &Scene,
@@ -193,6 +196,7 @@ impl Integrator for PathTracer {
         }
         radiance
     }
+    // ANCHOR_END: path_radiance
 }
 
 impl PathTracer {
