@@ -111,6 +111,7 @@ pub fn uniform_sphere(u: glam::Vec2) -> Vec3 {
     Vec3::new(s * phi.cos(), s * phi.sin(), z)
 }
 
+// ANCHOR: cosine_hemisphere
 /// Cosine-weighted direction about +z (Malley's method: a uniform point on
 /// the unit disc, concentric map of Shirley & Chiu 1997, lifted to the
 /// hemisphere); density cos θ / π per steradian.
@@ -130,6 +131,7 @@ pub fn cosine_hemisphere(u: glam::Vec2) -> Vec3 {
     let (x, y) = (r * phi.cos(), r * phi.sin());
     Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt())
 }
+// ANCHOR_END: cosine_hemisphere
 
 /// Barycentrics (b₁, b₂) of a uniformly distributed point in a triangle
 /// (p = p₀ + b₁(p₁ − p₀) + b₂(p₂ − p₀)) by the square-root warp of

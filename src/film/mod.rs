@@ -36,6 +36,7 @@ pub struct PixelStats {
 }
 
 impl PixelStats {
+    // ANCHOR: welford
     /// Welford's update.
     #[inline]
     pub fn add(&mut self, x: Color) {
@@ -53,6 +54,7 @@ impl PixelStats {
             self.m2 / (self.count - 1) as f32
         }
     }
+    // ANCHOR_END: welford
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -43,7 +43,7 @@
 //! is stability: with absorbing walls the averaging operator of an
 //! n × n × n room has spectral radius λ = cos(π/(n+1)) ≈ 1 − π²/(2(n+1)²),
 //! and the iteration diverges for α > 1/λ ≈ 1 + π²/(2(n+1)²) — about
-//! 1.0023 for n = 64. S4's α = 2.43902 can only stay finite in an open
+//! 1.0012 for n = 64. S4's α = 2.43902 can only stay finite in an open
 //! world where most light escapes, or when the stored values saturate
 //! ([`FloodFillConfig::max_irradiance`]).
 //!
@@ -504,6 +504,7 @@ impl FloodFill {
         [g.x as isize, g.y as isize, g.z as isize]
     }
 
+    // ANCHOR: lookup
     /// Irradiance for a secondary-ray hit at `p` with unit normal `n`
     /// (facing the side the ray came from). `u` are three uniform numbers
     /// in [0, 1) (only [`Lookup::Hemisphere`] uses them): the result is a
@@ -575,6 +576,7 @@ impl FloodFill {
         }
         best.map(|(_, i)| self.voxel_irradiance([i[0] as usize, i[1] as usize, i[2] as usize]))
     }
+    // ANCHOR_END: lookup
 
     /// Trilinear interpolation of the open voxels' I between the eight
     /// voxel centres around `q`; `None` when all eight are solid or out.
@@ -633,6 +635,7 @@ impl Kernel<'_> {
         let n = px - 2;
         let clamp = self.clamp;
         let base = z * sz;
+        // ANCHOR: floodfill_update
         let (mut sq, mut max) = (0.0f64, 0.0f64);
         for (c, out) in out.into_iter().enumerate() {
             let cur = self.cur[c];
@@ -667,6 +670,7 @@ impl Kernel<'_> {
                 let v = self.gain[i] * (sum + (w.source[c] + w.bounce[c] * cur[i]));
                 out[i - base] = v.min(clamp);
             }
+            // ANCHOR_END: floodfill_update
             if RESIDUAL {
                 for y in 1..py - 1 {
                     let i = base + y * px + 1;

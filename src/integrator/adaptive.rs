@@ -145,6 +145,7 @@ impl<I: Integrator> Tracer<'_, I> {
         self.integrator.radiance(self.scene, &ray, &ctx, stats)
     }
 
+    // ANCHOR: refine
     /// The mean over the square of side `size` (fine units) whose top-left
     /// point is (`lx`, `ly`) in the pixel's `grid`, at subdivision `level`;
     /// its corners are in the grid already, new points are traced into it.
@@ -181,6 +182,7 @@ impl<I: Integrator> Tracer<'_, I> {
         ];
         (q[0] + q[1] + q[2] + q[3]) * 0.25
     }
+    // ANCHOR_END: refine
 }
 
 /// One pixel's points on the fine lattice, (step + 1)² of them, with what

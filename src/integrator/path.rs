@@ -117,6 +117,7 @@ fn vertex_numbers(ctx: &SampleContext, bounce: u32) -> [f32; DIMS_PER_VERTEX] {
     std::array::from_fn(|_| rng.next_f32())
 }
 
+// ANCHOR: power_heuristic
 /// Veach's power heuristic (β = 2) for one sample from each of two
 /// strategies: the weight of the strategy with density `a`.
 #[inline]
@@ -128,6 +129,7 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
         0.0
     }
 }
+// ANCHOR_END: power_heuristic
 
 impl Integrator for PathTracer {
     fn radiance<S: Stats>(
@@ -163,6 +165,7 @@ impl PathTracer {
     /// first bounce's hit x₂: after the emission found there (MIS-weighted
     /// as usual), x₂ adds albedo × `end.light_at(x₂)` in place of its own
     /// light sampling and further bounces.
+    // ANCHOR: path_radiance
     pub fn trace<S: Stats, E: PathEnd>(
         &self,
         scene: &Scene,
@@ -234,6 +237,7 @@ impl PathTracer {
         }
         radiance
     }
+    // ANCHOR_END: path_radiance
 
     /// Σ over point lights of π·arriving(d)·cos θ·V: the reflected radiance
     /// divided by the albedo (f·I = (ρ/π)·π·c·i; see the module docs).

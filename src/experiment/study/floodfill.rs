@@ -21,7 +21,8 @@
 //! log scale shared by all snapshots of the run (solid voxels grey).
 
 use super::{
-    bool_param, int_param, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study, StudySettings,
+    bool_param, int_param, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study,
+    StudySettings,
 };
 use crate::analysis::plot::{ImageGrid, LineChart, Palette, Scale, Series, SeriesStyle};
 use crate::experiment::sweep::RunPoint;
