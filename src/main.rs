@@ -295,8 +295,12 @@ struct RenderArgs {
     /// `direct` (path tracer, direct light only: emission seen plus light
     /// sampled at the first hit) or `path:K` (Monte Carlo path tracing with
     /// up to K bounces after the camera hit, i.e. paths of up to K+1
-    /// reflections; MIS between light and BRDF sampling). Samples per pixel
-    /// come from --sampler (e.g. `random:16`, `sobol:64`).
+    /// reflections; MIS between light and BRDF sampling) or
+    /// `floodfill[:key=value,…]` (S4: one bounce, then the voxel flood-fill
+    /// cache × albedo; keys res, alpha, avg=linear|gamma, bounce=on|off,
+    /// lookup=hemisphere|trilinear, warm=N|converge, steps, max, light; or
+    /// `floodfill:s4`). Samples per pixel come from --sampler (e.g.
+    /// `random:16`, `sobol:64`).
     #[arg(long, default_value = "whitted", value_parser = IntegratorKind::parse)]
     integrator: IntegratorKind,
     /// Path tracer: bounces taken before Russian roulette may end a path
