@@ -37,7 +37,7 @@
 
 use super::render_cost::parse_resolution;
 use super::{
-    int_param, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study,
+    float_param, int_param, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study,
     StudySettings, Timings,
 };
 use crate::accel::AccelKind;
@@ -319,18 +319,8 @@ fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
     };
     let brute_max_faces =
         int_param(run, "brute_max_faces", 0, i64::MAX)?.unwrap_or(DEFAULT_BRUTE_MAX_FACES) as u64;
-    let brute_sample_tests = match run.get("brute_sample_tests") {
-        None => DEFAULT_BRUTE_SAMPLE_TESTS,
-        Some(v) => v
-            .as_f64()
-            .filter(|t| t.is_finite() && *t >= 1.0)
-            .ok_or_else(|| {
-                ParamError::new(
-                    "brute_sample_tests",
-                    format!("must be a number ≥ 1, got {} ({v})", v.type_name()),
-                )
-            })?,
-    };
+    let brute_sample_tests = float_param(run, "brute_sample_tests", 1.0, f64::MAX)?
+        .unwrap_or(DEFAULT_BRUTE_SAMPLE_TESTS);
     let reference = match str_param(run, "reference")? {
         None => "bvh:aabb:sah".parse().expect("a valid accelerator name"),
         Some(r) => r

@@ -21,8 +21,8 @@
 //! log scale shared by all snapshots of the run (solid voxels grey).
 
 use super::{
-    bool_param, int_param, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study,
-    StudySettings,
+    bool_param, float_param, int_param, seconds_cell, str_param, ParamDoc, ParamError, Row,
+    RunContext, Study, StudySettings,
 };
 use crate::analysis::plot::{ImageGrid, LineChart, Palette, Scale, Series, SeriesStyle};
 use crate::experiment::sweep::RunPoint;
@@ -125,17 +125,6 @@ struct Config {
     dark_box: Option<(Vec3, Vec3)>,
 }
 
-fn float_param(run: &RunPoint, name: &str) -> Result<Option<f64>, ParamError> {
-    match run.get(name) {
-        None => Ok(None),
-        Some(v) => v
-            .as_f64()
-            .filter(|x| x.is_finite())
-            .map(Some)
-            .ok_or_else(|| ParamError::new(name, format!("must be a finite number, got {v}"))),
-    }
-}
-
 fn box_param(run: &RunPoint, name: &str) -> Result<Option<(Vec3, Vec3)>, ParamError> {
     let Some(s) = str_param(run, name)? else {
         return Ok(None);
@@ -165,7 +154,7 @@ fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
     )?
     .unwrap_or(64) as usize;
     let mut ff = FloodFillConfig::default();
-    if let Some(a) = float_param(run, "alpha")? {
+    if let Some(a) = float_param(run, "alpha", f64::MIN, f64::MAX)? {
         ff.alpha = a as f32;
     }
     ff.averaging = match str_param(run, "averaging")? {
@@ -181,7 +170,7 @@ fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
     if let Some(b) = bool_param(run, "surface_bounce")? {
         ff.surface_bounce = b;
     }
-    if let Some(m) = float_param(run, "max_irradiance")? {
+    if let Some(m) = float_param(run, "max_irradiance", f64::MIN, f64::MAX)? {
         ff.max_irradiance = m as f32;
     }
     ff.validate().map_err(|e| ParamError {
@@ -189,11 +178,11 @@ fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
         message: e,
     })?;
     let steps = int_param(run, "steps", 1, 1_000_000)?.unwrap_or(256) as usize;
-    let tolerance = float_param(run, "tolerance")?.unwrap_or(1e-4);
+    let tolerance = float_param(run, "tolerance", f64::MIN, f64::MAX)?.unwrap_or(1e-4);
     if tolerance <= 0.0 {
         return Err(ParamError::new("tolerance", "must be positive"));
     }
-    let slice = float_param(run, "slice")?.unwrap_or(0.5);
+    let slice = float_param(run, "slice", f64::MIN, f64::MAX)?.unwrap_or(0.5);
     if !(0.0..=1.0).contains(&slice) {
         return Err(ParamError::new(
             "slice",

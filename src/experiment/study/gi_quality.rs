@@ -55,13 +55,13 @@
 
 use super::render_cost::{parse_resolution, scene_param};
 use super::{
-    int_param, median, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study,
-    StudySettings,
+    float_param, int_param, median, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext,
+    Study, StudySettings,
 };
 use crate::accel::AccelKind;
 use crate::analysis::metrics::{compare, flip_error_map, mse};
 use crate::analysis::plot::{ImageGrid, Palette};
-use crate::experiment::sweep::{RunPoint, Value};
+use crate::experiment::sweep::RunPoint;
 use crate::integrator::IntegratorKind;
 use crate::io::image::{read_exr_channels, read_image, LinearImage};
 use crate::io::scene_file::{load_scene, Overrides};
@@ -195,18 +195,11 @@ fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
     };
     let frames = int_param(run, "frames", 2, 100_000)?.unwrap_or(DEFAULT_FRAMES) as u32;
     let seed = int_param(run, "seed", 0, 1 << 40)?.unwrap_or(0) as u64;
-    let clamp = match run.get("clamp") {
+    // 0 measures raw values.
+    let clamp = match float_param(run, "clamp", 0.0, f64::MAX)? {
         None => Some(1.0),
-        Some(Value::Int(0)) => None,
-        Some(Value::Int(i)) if *i > 0 => Some(*i as f32),
-        Some(Value::Float(f)) if *f == 0.0 => None,
-        Some(Value::Float(f)) if *f > 0.0 && f.is_finite() => Some(*f as f32),
-        Some(v) => {
-            return Err(ParamError::new(
-                "clamp",
-                format!("must be a non-negative number, got {v}"),
-            ))
-        }
+        Some(0.0) => None,
+        Some(c) => Some(c as f32),
     };
     let reference = match str_param(run, "reference")? {
         Some(r) => {

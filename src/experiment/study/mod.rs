@@ -284,6 +284,33 @@ pub fn int_param(run: &RunPoint, name: &str, lo: i64, hi: i64) -> Result<Option<
     }
 }
 
+/// The numeric parameter `name` of a run (an integer or a float), if it
+/// has one, checked to be finite and to lie in `lo..=hi`.
+pub fn float_param(
+    run: &RunPoint,
+    name: &str,
+    lo: f64,
+    hi: f64,
+) -> Result<Option<f64>, ParamError> {
+    let Some(v) = run.get(name) else {
+        return Ok(None);
+    };
+    match v.as_f64() {
+        Some(x) if x.is_finite() && (lo..=hi).contains(&x) => Ok(Some(x)),
+        _ if lo == f64::MIN && hi == f64::MAX => Err(ParamError::new(
+            name,
+            format!("must be a finite number, got {} ({v})", v.type_name()),
+        )),
+        _ => Err(ParamError::new(
+            name,
+            format!(
+                "must be a number in [{lo}, {hi}], got {} ({v})",
+                v.type_name()
+            ),
+        )),
+    }
+}
+
 /// The boolean parameter `name` of a run, if it has one.
 pub fn bool_param(run: &RunPoint, name: &str) -> Result<Option<bool>, ParamError> {
     match run.get(name) {
