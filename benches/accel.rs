@@ -20,7 +20,7 @@
 //! - random: as many rays as pixels, from a sphere around the mesh through
 //!   uniform points of its bounds, closest hit (the least coherent set).
 //!
-//! The sets are `raylab::accel::workload`'s, shared with the `accel_speed`
+//! The sets are `raylab::workload`'s, shared with the `accel_speed`
 //! study (`analysis/embree-speed.toml`).
 //!
 //! Every row also gives its throughput for each set relative to Embree 4's
@@ -31,12 +31,12 @@
 //! `RAYLAB_BENCH_ACCELS=bvh:aabb:sah,embree` picks accelerators (names as in
 //! `--accel`) and `RAYLAB_BENCH_MESHES=camel` picks meshes by name prefix.
 
-use raylab::accel::workload::{trace_serial, RayKind, Segment, Workload};
 use raylab::accel::{AccelKind, Accelerator, BvhConfig};
 use raylab::integrator::{render, Whitted};
 use raylab::io::scene_file::{load_scene, Overrides};
 use raylab::scene::Scene;
 use raylab::stats::{Counters, NoStats, Stats};
+use raylab::workload::{trace_serial, Segment, Workload};
 use std::path::Path;
 use std::time::Instant;
 
@@ -130,7 +130,7 @@ fn main() {
         let sets = Workload::from_scene(&scene, (WIDTH * HEIGHT) as usize, 1);
         println!(
             "\n{name}: {}{}",
-            RayKind::ALL
+            Workload::KINDS
                 .map(|k| format!("{} {k}", sets.get(k).len()))
                 .join(", "),
             if i == 0 {
@@ -167,7 +167,7 @@ fn main() {
                 println!("  {kind:<20} skipped: {e}");
                 continue;
             }
-            let tput = RayKind::ALL.map(|k| {
+            let tput = Workload::KINDS.map(|k| {
                 let rays = sets.get(k);
                 if kind == AccelKind::Brute {
                     throughput::<NoStats>(&scene, &strided(rays), k.any_hit())

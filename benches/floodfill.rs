@@ -11,7 +11,9 @@
 //! Run with `make bench` or `cargo bench --bench floodfill`.
 
 use raylab::experiment::study::{median, process_cpu_seconds};
-use raylab::gi::{Averaging, FloodFill, FloodFillConfig, GridSpec, Threads};
+use raylab::gi::{
+    Averaging, FloodFill, FloodFillConfig, GridSpec, Threads, DEFAULT_WALL_LIGHT_SAMPLES,
+};
 use raylab::io::scene_file::{load_scene, Overrides};
 use std::path::Path;
 use std::time::Instant;
@@ -70,8 +72,9 @@ fn main() {
                 averaging,
                 ..FloodFillConfig::default()
             };
-            let mut ff = FloodFill::from_scene(&scene, &GridSpec::new(res), cfg)
-                .expect("voxelise the Cornell box");
+            let mut ff =
+                FloodFill::from_scene(&scene, &GridSpec::new(res), cfg, DEFAULT_WALL_LIGHT_SAMPLES)
+                    .expect("voxelise the Cornell box");
             for (threads, name) in [(Threads::One, "one"), (Threads::Pool, "pool")] {
                 for residual in [false, true] {
                     let (s, cpu) = median_seconds_per_step(&mut ff, steps, threads, residual);

@@ -20,12 +20,15 @@ pub mod gi;
 pub mod integrator;
 pub mod io;
 pub mod light;
+pub mod lighting;
 pub mod material;
 pub mod math;
 pub mod sampler;
 pub mod scene;
+pub mod shading;
 pub mod shape;
 pub mod stats;
 pub mod stats_report;
 #[cfg(feature = "embree")]
 pub mod validate;
+pub mod workload;

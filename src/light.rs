@@ -3,8 +3,9 @@
 //! primitives, gathered once per scene into [`AreaLights`] so the path
 //! tracer can sample them (next-event estimation).
 
-use crate::math::{luminance, uniform_sphere, uniform_triangle, Color, Vec3};
-use crate::shape::{Primitive, Shape};
+use crate::math::{luminance, uniform_sphere, uniform_triangle, Color, Vec3, V3};
+use crate::shading::point_light_arriving;
+use crate::shape::{Primitive, Shape, Triangle};
 use glam::Vec2;
 
 /// How a point light's irradiance falls off with distance d.
@@ -34,10 +35,8 @@ impl PointLight {
     /// The light's contribution arriving at distance `d`.
     #[inline]
     pub fn arriving(&self, d: f32) -> Color {
-        match self.falloff {
-            Falloff::None => self.radiance,
-            Falloff::InverseSquare => self.radiance / (d * d),
-        }
+        let inverse_square = self.falloff == Falloff::InverseSquare;
+        point_light_arriving(V3::from(self.radiance), inverse_square, d).into()
     }
 }
 
@@ -74,14 +73,14 @@ pub struct Emitter {
 /// The geometry of an emitter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum EmitterShape {
-    Triangle([Vec3; 3]),
+    Triangle(Triangle),
     Sphere { centre: Vec3, radius: f32 },
 }
 
 impl EmitterShape {
     fn of(shape: &Shape) -> Option<Self> {
         match shape {
-            Shape::Triangle(t) => Some(Self::Triangle(t.p)),
+            Shape::Triangle(t) => Some(Self::Triangle(*t)),
             Shape::Sphere(s) => Some(Self::Sphere {
                 centre: s.centre,
                 radius: s.radius,
@@ -93,7 +92,7 @@ impl EmitterShape {
     /// Surface area.
     pub fn area(&self) -> f32 {
         match *self {
-            Self::Triangle([a, b, c]) => 0.5 * (b - a).cross(c - a).length(),
+            Self::Triangle(t) => t.area(),
             Self::Sphere { radius, .. } => 2.0 * std::f32::consts::TAU * radius * radius,
         }
     }
@@ -102,10 +101,10 @@ impl EmitterShape {
     /// there, from two uniform numbers in [0, 1).
     pub fn sample(&self, u: Vec2) -> (Vec3, Vec3) {
         match *self {
-            Self::Triangle([a, b, c]) => {
+            Self::Triangle(t) => {
+                let [a, b, c] = t.p;
                 let (b1, b2) = uniform_triangle(u);
-                let p = a + b1 * (b - a) + b2 * (c - a);
-                (p, (b - a).cross(c - a).normalize())
+                (a + b1 * (b - a) + b2 * (c - a), t.normal())
             }
             Self::Sphere { centre, radius } => {
                 let n = uniform_sphere(u);

@@ -424,7 +424,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         ),
     };
     match ImageFormat::from_path(&args.output) {
-        Some(ImageFormat::Exr) => film.write_exr(&args.output),
+        Some(ImageFormat::Exr) => raylab::io::image::write_film_exr(&args.output, &film),
         _ => write_image(&args.output, &image),
     }
     .with_context(|| format!("writing {}", args.output.display()))?;

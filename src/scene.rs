@@ -7,10 +7,11 @@ use crate::camera::Camera;
 use crate::film::Filter;
 use crate::light::{AreaLights, PointLight};
 use crate::material::Material;
+use crate::math::Aabb;
 use crate::math::{Color, Ray, Vec3};
 use crate::sampler::Sampler;
 use crate::shape::triangle::NO_MESH;
-use crate::shape::{Bounds, Hit, PreparedRay, PrimHit, Primitive, Shape};
+use crate::shape::{Hit, PreparedRay, PrimHit, Primitive, Shape};
 use crate::stats::Stats;
 
 /// Settings that control the integrator, not the geometry.
@@ -124,8 +125,8 @@ impl Scene {
         Ok(())
     }
 
-    /// Bounds of every bounded primitive.
-    pub fn bounds(&self) -> Bounds {
+    /// Aabb of every bounded primitive.
+    pub fn bounds(&self) -> Aabb {
         crate::shape::bounds_of(&self.prims)
     }
 

@@ -7,14 +7,72 @@
 
 use std::ops::AddAssign;
 
-/// Which kind of ray was traced (for "rays by kind" counts).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Which kind of ray was traced: what spawned it. The renderers count
+/// their rays by kind, and the fixed ray workloads of the accelerator
+/// benchmarks ([`crate::workload`]) are sets of rays of these kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RayKind {
+    /// Through a pixel from the camera ("primary" rays).
     Camera,
+    /// Towards a light, asking only whether anything is in the way.
     Shadow,
+    /// Whitted's mirror reflection.
     Reflection,
+    /// Whitted's refraction.
     Refraction,
+    /// A path tracer's bounce: a cosine-sampled diffuse direction.
     Path,
+    /// A probe ray with no place in a render: from a random point around
+    /// the scene through a random point of its bounds (the least coherent
+    /// rays, for accelerator benchmarks).
+    Random,
+}
+
+impl RayKind {
+    /// Every kind.
+    pub const ALL: [RayKind; 6] = [
+        RayKind::Camera,
+        RayKind::Shadow,
+        RayKind::Reflection,
+        RayKind::Refraction,
+        RayKind::Path,
+        RayKind::Random,
+    ];
+
+    /// The kind's name in tables, CSV columns and parameters.
+    pub fn name(self) -> &'static str {
+        match self {
+            RayKind::Camera => "camera",
+            RayKind::Shadow => "shadow",
+            RayKind::Reflection => "reflection",
+            RayKind::Refraction => "refraction",
+            RayKind::Path => "path",
+            RayKind::Random => "random",
+        }
+    }
+
+    /// Shadow rays ask whether anything is hit (any-hit query); the others
+    /// ask for the closest hit.
+    pub fn any_hit(self) -> bool {
+        self == RayKind::Shadow
+    }
+}
+
+impl std::fmt::Display for RayKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for RayKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        RayKind::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| {
+            format!(
+                "unknown ray kind `{s}` (expected camera, shadow, reflection, refraction, path or random)"
+            )
+        })
+    }
 }
 
 /// A sink for events on the hot path. Every method defaults to doing
@@ -59,6 +117,7 @@ pub struct Counters {
     pub reflection_rays: u64,
     pub refraction_rays: u64,
     pub path_rays: u64,
+    pub random_rays: u64,
     pub nodes_visited: u64,
     pub box_tests: u64,
     pub bounding_sphere_tests: u64,
@@ -78,6 +137,7 @@ impl Counters {
             + self.reflection_rays
             + self.refraction_rays
             + self.path_rays
+            + self.random_rays
     }
 
     /// Bounding-volume tests of every kind.
@@ -91,13 +151,14 @@ impl Counters {
     }
 
     /// Named values in a fixed order, for tables and CSV columns.
-    pub fn named(&self) -> [(&'static str, u64); 14] {
+    pub fn named(&self) -> [(&'static str, u64); 15] {
         [
             ("camera_rays", self.camera_rays),
             ("shadow_rays", self.shadow_rays),
             ("reflection_rays", self.reflection_rays),
             ("refraction_rays", self.refraction_rays),
             ("path_rays", self.path_rays),
+            ("random_rays", self.random_rays),
             ("nodes_visited", self.nodes_visited),
             ("box_tests", self.box_tests),
             ("bounding_sphere_tests", self.bounding_sphere_tests),
@@ -118,6 +179,7 @@ impl AddAssign for Counters {
         self.reflection_rays += o.reflection_rays;
         self.refraction_rays += o.refraction_rays;
         self.path_rays += o.path_rays;
+        self.random_rays += o.random_rays;
         self.nodes_visited += o.nodes_visited;
         self.box_tests += o.box_tests;
         self.bounding_sphere_tests += o.bounding_sphere_tests;
@@ -140,6 +202,7 @@ impl Stats for Counters {
             RayKind::Reflection => self.reflection_rays += 1,
             RayKind::Refraction => self.refraction_rays += 1,
             RayKind::Path => self.path_rays += 1,
+            RayKind::Random => self.random_rays += 1,
         }
     }
     #[inline(always)]

@@ -21,8 +21,9 @@ use raylab::accel::bvh::{
 };
 use raylab::accel::{Accel, AccelKind, Accelerator, Brute, Bvh, Bvh4};
 use raylab::io::read_mesh;
+use raylab::math::Aabb;
 use raylab::math::{Ray, Vec3};
-use raylab::shape::{Bounds, PreparedRay, Primitive, Shape, Triangle};
+use raylab::shape::{PreparedRay, Primitive, Shape, Triangle};
 use raylab::stats::{Counters, NoStats};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -72,7 +73,7 @@ fn rays_for(prims: &[Primitive], seed: u64) -> Vec<PreparedRay> {
     let bounds = prims
         .iter()
         .filter_map(Primitive::bounds)
-        .fold(Bounds::EMPTY, Bounds::union);
+        .fold(Aabb::EMPTY, Aabb::union);
     let centre = bounds.centre();
     let radius = 0.5 * bounds.extent().length();
     let mut rng = SplitMix64(seed);
@@ -173,7 +174,7 @@ fn check_structure<V: BoundingVolume>(bvh: &Bvh<V>, prims: &[Primitive], config:
     );
     let tol = 1e-6;
     walk(bvh, config.leaf_size, |node, range| {
-        let mut content = Bounds::EMPTY;
+        let mut content = Aabb::EMPTY;
         for &id in &bvh.indices()[range] {
             for v in vertices(&prims[id as usize]) {
                 assert!(

@@ -6,8 +6,8 @@ use raylab::gi::{
     Averaging, FloodFill, FloodFillConfig, GridSpec, Lookup, Threads, VoxelGrid, VoxelKind, GAMMA,
 };
 use raylab::io::scene_file::{load_scene, parse_scene, Overrides};
+use raylab::math::Aabb;
 use raylab::math::{Color, Vec3};
-use raylab::shape::Bounds;
 use std::path::Path;
 
 /// A closed room: an n³ grid whose outer layer is solid, emissive with
@@ -199,7 +199,7 @@ fn cornell(resolution: usize, cfg: FloodFillConfig) -> FloodFill {
         &Overrides::default(),
     )
     .unwrap();
-    FloodFill::from_scene(&scene, &GridSpec::new(resolution), cfg).unwrap()
+    FloodFill::from_scene(&scene, &GridSpec::new(resolution), cfg, 4).unwrap()
 }
 
 #[test]
@@ -243,7 +243,7 @@ fn light_is_never_stored_in_solid_voxels() {
     // S4's diverging gain too: the solid voxels must stay exactly zero
     // however large (even infinite) their neighbours become.
     for cfg in [FloodFillConfig::default(), FloodFillConfig::s4()] {
-        let mut ff = FloodFill::new(&grid, cfg, raylab::gi::point_light_direct(&scene)).unwrap();
+        let mut ff = FloodFill::new(&grid, cfg, raylab::gi::wall_light(&scene, &cfg, 0)).unwrap();
         for _ in 0..150 {
             ff.step(Threads::One);
         }
@@ -287,7 +287,7 @@ fn point_light_injection_and_lookups() {
     let scene = parse_scene(text, Path::new("floor.toml"), &Overrides::default()).unwrap();
     let spec = GridSpec {
         resolution: 4,
-        bounds: Some(Bounds {
+        bounds: Some(Aabb {
             min: Vec3::new(-2.0, 0.0, -2.0),
             max: Vec3::new(2.0, 4.0, 2.0),
         }),
@@ -300,7 +300,7 @@ fn point_light_injection_and_lookups() {
     let mut ff = FloodFill::new(
         &grid,
         FloodFillConfig::default(),
-        raylab::gi::point_light_direct(&scene),
+        raylab::gi::wall_light(&scene, &FloodFillConfig::default(), 0),
     )
     .unwrap();
     ff.step(Threads::One);
@@ -389,7 +389,7 @@ fn voxelised_sphere_has_the_expected_volume() {
         let scene = parse_scene(&text, Path::new("ball.toml"), &Overrides::default()).unwrap();
         let spec = GridSpec {
             resolution: 20,
-            bounds: Some(Bounds {
+            bounds: Some(Aabb {
                 min: Vec3::splat(-1.0),
                 max: Vec3::splat(1.0),
             }),
@@ -469,4 +469,105 @@ fn quick_convergence_manifest_runs_and_reports_leaks_and_divergence() {
         })
         .count();
     assert_eq!(snapshots, 5);
+}
+
+/// Every builder of a cache lights its walls by the same rule
+/// (`gi::wall_light`): the `floodfill` study and `FloodFill::from_scene`
+/// used to inject every point light, `whitted_only` stand-ins included, with
+/// their own shadow-ray offset, while the render mode skipped the stand-ins
+/// and sampled the emitter — two different caches for one Cornell box. Now
+/// the study's construction and the render mode's give the same cache, bit
+/// for bit.
+#[test]
+fn study_and_render_mode_build_the_same_cornell_cache() {
+    use raylab::integrator::floodfill::Warm;
+    use raylab::integrator::{FloodFillIntegrator, FloodFillSettings};
+    let scene = load_scene(
+        Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/data/scenes/cornell-box.toml"
+        )),
+        &Overrides::default(),
+    )
+    .unwrap();
+    let settings = FloodFillSettings {
+        resolution: 16,
+        warm: Warm::Steps(30),
+        ..FloodFillSettings::default()
+    };
+    let render_mode = FloodFillIntegrator::build(&scene, settings).unwrap();
+    let mut study = FloodFill::from_scene(
+        &scene,
+        &GridSpec::new(settings.resolution),
+        settings.config,
+        settings.light_samples,
+    )
+    .unwrap();
+    for _ in 0..30 {
+        study.step(Threads::Pool);
+    }
+    let (a, b) = (render_mode.cache.irradiance(), study.irradiance());
+    assert!(a.iter().any(|c| *c != Color::ZERO), "the cache must be lit");
+    assert_eq!(a, b);
+}
+
+/// A `whitted_only` point light is a stand-in the physical estimators never
+/// see: a room lit by nothing else stays black in the cache, while the
+/// Whitted integrator sees the light.
+#[test]
+fn whitted_only_lights_do_not_light_the_cache() {
+    let text = |flag: bool| {
+        format!(
+            r#"
+        [image]
+        width = 8
+        height = 8
+        [camera]
+        eye = [0.0, 1.0, 5.0]
+        look_at = [0.0, 0.0, 0.0]
+        fov = 40.0
+        [materials.grey]
+        color = [0.8, 0.8, 0.8]
+        diffuse = 0.5
+        [[plane]]
+        point = [0.0, 0.0, 0.0]
+        normal = [0.0, 1.0, 0.0]
+        material = "grey"
+        [[light]]
+        position = [0.0, 3.0, 0.0]
+        whitted_only = {flag}
+    "#
+        )
+    };
+    let spec = GridSpec {
+        resolution: 4,
+        bounds: Some(Aabb {
+            min: Vec3::new(-2.0, 0.0, -2.0),
+            max: Vec3::new(2.0, 4.0, 2.0),
+        }),
+    };
+    let lit = |flag: bool| {
+        let scene =
+            parse_scene(&text(flag), Path::new("room.toml"), &Overrides::default()).unwrap();
+        let mut ff = FloodFill::from_scene(&scene, &spec, FloodFillConfig::default(), 4).unwrap();
+        ff.step(Threads::One);
+        let cache = ff
+            .irradiance()
+            .iter()
+            .map(|c| c.max_element())
+            .fold(0.0f32, f32::max);
+        let (film, _) = raylab::integrator::IntegratorKind::Whitted
+            .render::<raylab::stats::NoStats>(&scene, Some(1))
+            .unwrap();
+        let whitted = film.image().iter().copied().fold(0.0f32, f32::max);
+        (cache, whitted)
+    };
+    let (cache, whitted) = lit(false);
+    assert!(
+        cache > 0.0 && whitted > 0.0,
+        "an ordinary light lights both"
+    );
+    let (cache, whitted) = lit(true);
+    assert_eq!(cache, 0.0, "the stand-in must not light the cache");
+    assert!(whitted > 0.0, "the Whitted integrator sees the stand-in");
 }

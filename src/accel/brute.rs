@@ -2,7 +2,7 @@
 //! must agree with, and S3's "basic tracer".
 
 use super::Accel;
-use crate::shape::{PreparedRay, PrimHit, Primitive};
+use crate::shape::{PreparedRay, PrimHit, PrimSource, Primitive};
 use crate::stats::Stats;
 
 #[derive(Clone, Debug, Default)]
@@ -30,7 +30,8 @@ pub fn closest_in<S: Stats>(
     stats: &mut S,
 ) {
     closest_of(
-        ids.iter().map(|&id| (id, &prims[id as usize])),
+        prims,
+        ids.iter().map(|&id| (id, id as usize)),
         ray,
         t_max,
         best,
@@ -47,21 +48,25 @@ pub fn any_in<S: Stats>(
     t_max: f32,
     stats: &mut S,
 ) -> bool {
-    any_of(ids.iter().map(|&id| &prims[id as usize]), ray, t_max, stats)
+    any_of(prims, ids.iter().map(|&id| id as usize), ray, t_max, stats)
 }
 
-/// [`closest_in`] over (index, primitive) pairs: the BVH's leaves pass
-/// their own copies of the primitives, stored in leaf order.
-#[inline]
-pub fn closest_of<'a, S: Stats>(
-    candidates: impl Iterator<Item = (u32, &'a Primitive)>,
+/// The closest-hit loop every accelerator's leaves run: test the
+/// `(id, slot)` candidates of `source` in order, shrinking `t_max` as hits
+/// are found and recording `(id, hit)` in `best`. Brute force passes scene
+/// indices as slots; the BVH's leaves pass slots of their leaf-ordered
+/// [`crate::shape::PrimArrays`].
+#[inline(always)]
+pub fn closest_of<P: PrimSource + ?Sized, S: Stats>(
+    source: &P,
+    candidates: impl Iterator<Item = (u32, usize)>,
     ray: &PreparedRay,
     t_max: &mut f32,
     best: &mut Option<(u32, PrimHit)>,
     stats: &mut S,
 ) {
-    for (id, p) in candidates {
-        if let Some(h) = p.intersect(ray, *t_max, stats) {
+    for (id, slot) in candidates {
+        if let Some(h) = source.test(slot, ray, *t_max, stats) {
             stats.primitive_hit();
             *t_max = h.t;
             *best = Some((id, h));
@@ -69,15 +74,17 @@ pub fn closest_of<'a, S: Stats>(
     }
 }
 
-/// [`any_in`] over primitives.
-#[inline]
-pub fn any_of<'a, S: Stats>(
-    mut candidates: impl Iterator<Item = &'a Primitive>,
+/// The any-hit loop: whether a candidate slot of `source` is hit in
+/// (0, t_max), stopping at the first.
+#[inline(always)]
+pub fn any_of<P: PrimSource + ?Sized, S: Stats>(
+    source: &P,
+    mut slots: impl Iterator<Item = usize>,
     ray: &PreparedRay,
     t_max: f32,
     stats: &mut S,
 ) -> bool {
-    let hit = candidates.any(|p| p.intersect(ray, t_max, stats).is_some());
+    let hit = slots.any(|slot| source.test(slot, ray, t_max, stats).is_some());
     if hit {
         stats.primitive_hit();
     }

@@ -8,7 +8,6 @@ pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
-pub mod workload;
 
 pub use brute::Brute;
 pub use bvh::{Bvh, Bvh4, BvhConfig, BvhStats};

@@ -11,12 +11,15 @@ pub mod filter;
 
 pub use filter::Filter;
 
-use crate::io::image::{write_exr_channels, ChannelData, LinearImage};
+/// Linear RGB image, shape (height, width, 3), row 0 at the top: what a
+/// film develops into, and what the image readers and writers of
+/// [`crate::io::image`] exchange.
+pub type LinearImage = Array3<f32>;
+
 use crate::math::Color;
 use glam::Vec2;
 use ndarray::Array3;
 use rayon::prelude::*;
-use std::path::Path;
 
 /// One camera sample: where it lies on the film (in pixels, pixel (x, y)
 /// covering [x, x+1) × [y, y+1)) and the radiance it carried.
@@ -205,39 +208,6 @@ impl Film {
             .sum();
         sum / (3 * self.pixels.len()) as f64
     }
-
-    /// Write the film as OpenEXR with its statistics: `R`, `G`, `B` = the
-    /// image (each pixel's mean, or the filtered value when a wider filter
-    /// made one), `variance.R`, `variance.G`, `variance.B` = the unbiased
-    /// sample variance of its samples (divide by `count` for the variance of
-    /// the mean), `count` = its number of samples (32-bit unsigned).
-    pub fn write_exr(&self, path: &Path) -> anyhow::Result<()> {
-        let channel =
-            |f: &dyn Fn(&PixelStats) -> f32| ChannelData::F32(self.pixels.iter().map(f).collect());
-        let image = self.image();
-        let plane = |c: usize| {
-            ChannelData::F32(
-                image
-                    .index_axis(ndarray::Axis(2), c)
-                    .iter()
-                    .copied()
-                    .collect(),
-            )
-        };
-        let channels = vec![
-            ("R", plane(0)),
-            ("G", plane(1)),
-            ("B", plane(2)),
-            ("variance.R", channel(&|p| p.variance().x)),
-            ("variance.G", channel(&|p| p.variance().y)),
-            ("variance.B", channel(&|p| p.variance().z)),
-            (
-                "count",
-                ChannelData::U32(self.pixels.iter().map(|p| p.count).collect()),
-            ),
-        ];
-        write_exr_channels(path, self.width as usize, self.height as usize, channels)
-    }
 }
 
 #[cfg(test)]
@@ -255,40 +225,5 @@ mod tests {
         let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f32>() / 4.0;
         assert!((p.mean.x - mean).abs() < 1e-6);
         assert!((p.variance().x - var).abs() < 1e-6);
-    }
-
-    /// Every channel comes back as written: f32 and u32 samples are stored
-    /// losslessly, so equality is exact; and `image`'s reader (used for
-    /// references and `raylab diff`) still finds the mean in R, G, B.
-    #[test]
-    fn exr_round_trip_of_statistics_channels() {
-        let mut film = Film::new(3, 2);
-        for (i, p) in film.pixels.iter_mut().enumerate() {
-            for k in 0..=i {
-                p.add(Color::new(0.1 * k as f32, 0.5, 2.0 + i as f32));
-            }
-        }
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("f.exr");
-        film.write_exr(&path).unwrap();
-        let exr = crate::io::image::read_exr_channels(&path).unwrap();
-        assert_eq!((exr.width, exr.height), (3, 2));
-        let get = |name: &str| {
-            exr.get(name)
-                .unwrap_or_else(|| panic!("no channel {name}"))
-                .to_vec()
-        };
-        let var = film.variance_image();
-        for (i, p) in film.pixels.iter().enumerate() {
-            let (y, x) = (i / 3, i % 3);
-            assert_eq!(get("R")[i], p.mean.x);
-            assert_eq!(get("B")[i], p.mean.z);
-            assert_eq!(get("variance.R")[i], var[[y, x, 0]]);
-            assert_eq!(get("variance.G")[i], var[[y, x, 1]]);
-            assert_eq!(get("count")[i], p.count as f32);
-        }
-        assert!(var[[1, 2, 0]] > 0.0, "the test needs a non-zero variance");
-        let back = crate::io::image::read_image(&path).unwrap();
-        assert_eq!(back, film.image());
     }
 }

@@ -23,7 +23,7 @@
 //!
 //! its emission, plus its albedo times the direct light on the face it
 //! turns to x (S4 injects sunlight this way; the direct-light function is
-//! a parameter, see [`point_light_direct`]), plus, with
+//! a parameter, see [`wall_light`]), plus, with
 //! [`FloodFillConfig::surface_bounce`], the light of x itself reflected
 //! back by the wall (the interreflection S4's scheme leaves out). Outside
 //! the grid is black: light that leaves it is lost.
@@ -63,9 +63,9 @@
 //! point becomes Le/(1 − a^γ)^{1/γ}, not Le/(1 − a).
 
 use super::voxel::{VoxelGrid, VoxelKind};
-use crate::math::{orthonormal_basis, Color, Ray, Vec3};
+use crate::lighting;
+use crate::math::{orthonormal_basis, Color, Vec3};
 use crate::scene::Scene;
-use crate::stats::NoStats;
 use rayon::prelude::*;
 
 /// S4's tuned gain α.
@@ -185,28 +185,30 @@ pub struct Residual {
     pub max: f64,
 }
 
-/// The direct-light function for the scene's point lights: the light a
-/// surface at `p` with unit normal `n` receives, in the units of the
-/// Whitted integrator's diffuse term (a surface of albedo ρ sends ρ × it):
-/// Σ_lights arriving(d)·max(0, n·l), each behind a shadow ray
-/// ([`Scene::occluded`]).
-pub fn point_light_direct(scene: &Scene) -> impl Fn(Vec3, Vec3) -> Color + '_ {
-    move |p, n| {
-        let mut e = Color::ZERO;
-        for light in &scene.lights {
-            let to = light.position - p;
-            let d = to.length();
-            let cos = n.dot(to) / d;
-            if cos <= 0.0 || !d.is_finite() || d == 0.0 {
-                continue;
-            }
-            // The ray spans (0, 1) of `to`, so it stops short of the light.
-            if !scene.occluded(&Ray::new(p, to), 1.0 - 1e-4, &mut NoStats) {
-                e += cos * light.arriving(d);
-            }
-        }
-        e
-    }
+/// Area-light samples per lit wall face, by default.
+pub const DEFAULT_WALL_LIGHT_SAMPLES: u32 = 16;
+
+/// The direct light on the cache's wall faces, the one rule every builder
+/// of a cache uses (the flood-fill render mode, the `floodfill` study,
+/// [`FloodFill::from_scene`]): [`lighting::surface_direct`] — the point
+/// lights a physical estimator sees (`whitted_only` stand-ins are not) and
+/// `light_samples` light-only samples of the area lights. With
+/// [`FloodFillConfig::surface_bounce`] the area lights are not sampled: the
+/// emitters' light reaches the walls through the emissive voxels and comes
+/// back by the walls' own bounce, and injecting it again would count the
+/// first reflection twice. Point lights have no voxels, so they are always
+/// injected.
+pub fn wall_light<'a>(
+    scene: &'a Scene,
+    config: &FloodFillConfig,
+    light_samples: u32,
+) -> impl Fn(Vec3, Vec3) -> Color + 'a {
+    let samples = if config.surface_bounce {
+        0
+    } else {
+        light_samples
+    };
+    move |p, n| lighting::surface_direct(scene, p, n, samples)
 }
 
 /// The flood-fill cache: two irradiance buffers over the grid padded by a
@@ -354,15 +356,17 @@ impl FloodFill {
         Ok(ff)
     }
 
-    /// Voxelise `scene` and build a cache lit by its emitters and point
-    /// lights ([`point_light_direct`]).
+    /// Voxelise `scene` and build a cache lit by its emitters and by the
+    /// direct light of [`wall_light`] with `light_samples` area samples per
+    /// face.
     pub fn from_scene(
         scene: &Scene,
         spec: &super::voxel::GridSpec,
         config: FloodFillConfig,
+        light_samples: u32,
     ) -> Result<Self, String> {
         let grid = VoxelGrid::from_scene(scene, spec)?;
-        Self::new(&grid, config, point_light_direct(scene))
+        Self::new(&grid, config, wall_light(scene, &config, light_samples))
     }
 
     /// The settings.

@@ -23,7 +23,7 @@ pub mod floodfill;
 pub mod voxel;
 
 pub use floodfill::{
-    point_light_direct, Averaging, FloodFill, FloodFillConfig, Lookup, Residual, Threads, GAMMA,
-    S4_ALPHA,
+    wall_light, Averaging, FloodFill, FloodFillConfig, Lookup, Residual, Threads,
+    DEFAULT_WALL_LIGHT_SAMPLES, GAMMA, S4_ALPHA,
 };
 pub use voxel::{GridSpec, VoxelGrid, VoxelKind};

@@ -36,9 +36,10 @@
 //! other voxel is **empty** (air).
 
 use crate::material::Material;
+use crate::math::Aabb;
 use crate::math::{Color, Vec3};
 use crate::scene::Scene;
-use crate::shape::{Bounds, Ellipsoid, Plane, Shape, Sphere, Triangle};
+use crate::shape::{Ellipsoid, Plane, Shape, Sphere, Triangle};
 use ndarray::Array3;
 
 /// Coordinate-descent sweeps of the ellipsoid–box test (see module docs).
@@ -76,7 +77,7 @@ pub struct GridSpec {
     pub resolution: usize,
     /// The box to voxelise; `None`: the bounds of the scene's bounded
     /// primitives (planes are clipped to it).
-    pub bounds: Option<Bounds>,
+    pub bounds: Option<Aabb>,
 }
 
 impl GridSpec {
@@ -238,7 +239,7 @@ impl VoxelGrid {
     /// Half-open index range [lo, hi) of the voxels whose closed boxes can
     /// meet the box `b` (a one-voxel margin against rounding), or `None`
     /// when `b` misses the grid.
-    fn voxel_range(&self, b: &Bounds) -> Option<([usize; 3], [usize; 3])> {
+    fn voxel_range(&self, b: &Aabb) -> Option<([usize; 3], [usize; 3])> {
         let d = self.dims();
         let lo_f = ((b.min - self.origin) / self.voxel_size).floor() - Vec3::ONE;
         let hi_f = ((b.max - self.origin) / self.voxel_size).floor() + Vec3::splat(2.0);

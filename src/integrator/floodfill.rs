@@ -33,15 +33,17 @@
 //! scheme (α = 2.43902, gamma, no wall reflection), saturated at 1 since it
 //! diverges otherwise.
 
-use super::path::{LightStrategy, PathEnd, PathTracer};
+use super::path::{PathEnd, PathTracer};
 use super::{Integrator, SampleContext};
 use crate::film::Film;
-use crate::gi::{Averaging, FloodFill, FloodFillConfig, GridSpec, Lookup, Threads, VoxelGrid};
-use crate::math::{Color, Ray, SplitMix64, Vec3};
+use crate::gi::{
+    wall_light, Averaging, FloodFill, FloodFillConfig, GridSpec, Lookup, Threads, VoxelGrid,
+    DEFAULT_WALL_LIGHT_SAMPLES,
+};
+use crate::math::{Color, Ray};
 use crate::scene::Scene;
 use crate::shape::Hit;
-use crate::stats::{NoStats, RenderStats, Stats};
-use glam::Vec2;
+use crate::stats::{RenderStats, Stats};
 use std::time::Instant;
 
 /// Most warm-up steps `warm=converge` runs (a 96³ grid needs about 500).
@@ -77,7 +79,7 @@ impl Default for FloodFillSettings {
             config: FloodFillConfig::default(),
             lookup: Lookup::Hemisphere,
             warm: Warm::Converge,
-            light_samples: 16,
+            light_samples: DEFAULT_WALL_LIGHT_SAMPLES,
         }
     }
 }
@@ -218,20 +220,7 @@ impl FloodFillIntegrator {
     pub fn build(scene: &Scene, settings: FloodFillSettings) -> Result<Self, String> {
         let start = Instant::now();
         let grid = VoxelGrid::from_scene(scene, &GridSpec::new(settings.resolution))?;
-        let light = PathTracer {
-            strategy: LightStrategy::LightOnly,
-            ..PathTracer::new(0)
-        };
-        // With walls reflecting, the emitters' light already reaches the
-        // walls through the emissive voxels and comes back by the walls'
-        // own bounce: injecting it again would count the first reflection
-        // twice. Point lights have no voxels, so they are always injected.
-        let area_samples = if settings.config.surface_bounce {
-            0
-        } else {
-            settings.light_samples
-        };
-        let direct = |p: Vec3, n: Vec3| direct_light(scene, &light, area_samples, p, n);
+        let direct = wall_light(scene, &settings.config, settings.light_samples);
         let mut cache = FloodFill::new(&grid, settings.config, direct)?;
         let build_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
@@ -281,41 +270,4 @@ impl Integrator for FloodFillIntegrator {
         };
         self.path.trace(scene, ray, ctx, stats, Some(&end))
     }
-}
-
-/// The direct light a wall face at `p` with normal `n` receives, in the
-/// units the cache's sources use (a surface of albedo ρ re-emits ρ × it):
-/// the path tracer's point-light term plus `samples` light-only area-light
-/// samples, each L_e·cos θ·cos θ′/(π·r²·p_A) — the estimator of
-/// ∫ L_e cos θ cos θ′ / (π r²) dA, the reflected radiance over the albedo.
-/// Its random numbers are keyed by the face's position, so the cache does
-/// not depend on the thread count.
-fn direct_light(scene: &Scene, light: &PathTracer, samples: u32, p: Vec3, n: Vec3) -> Color {
-    let hit = Hit {
-        t: 0.0,
-        point: p,
-        geometric_normal: n,
-        shading_normal: n,
-        prim: u32::MAX,
-        object: u32::MAX,
-        front_face: true,
-    };
-    let mut stats = NoStats;
-    let mut sum = light.point_lights(scene, &hit, &mut stats);
-    if samples > 0 && scene.area_lights.total_weight() > 0.0 {
-        let key = p
-            .to_array()
-            .iter()
-            .fold(0u64, |h, c| SplitMix64::mix(h ^ u64::from(c.to_bits())));
-        let mut rng = SplitMix64(key);
-        let mut area = Color::ZERO;
-        for _ in 0..samples {
-            let (sel, u, v) = (rng.next_f32(), rng.next_f32(), rng.next_f32());
-            if let Some(s) = scene.area_lights.sample(sel, Vec2::new(u, v)) {
-                area += light.area_light(scene, &hit, &s, &mut stats);
-            }
-        }
-        sum += area / samples as f32;
-    }
-    sum
 }

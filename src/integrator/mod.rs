@@ -21,10 +21,9 @@ pub use path::PathTracer;
 pub use whitted::Whitted;
 
 use crate::film::{Film, FilmSample, Filter, PixelStats};
-use crate::math::{Color, Ray, Vec3};
+use crate::math::{Color, Ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::shape::Hit;
 use crate::stats::{Counters, RenderStats, Stats};
 use glam::Vec2;
 use rayon::prelude::*;
@@ -48,21 +47,6 @@ pub trait Integrator: Sync {
         ctx: &SampleContext,
         stats: &mut S,
     ) -> Color;
-}
-
-/// Whether `target` is visible from `hit`: one shadow ray (counted as
-/// [`crate::stats::RayKind::Shadow`]) from the hit point, offset to the
-/// side `dir` leaves on, stopping ε short of the target (see
-/// [`whitted`]'s module docs for ε). `dir` is the unit direction towards
-/// `target`.
-#[inline]
-pub fn visible<S: Stats>(scene: &Scene, hit: &Hit, dir: Vec3, target: Vec3, stats: &mut S) -> bool {
-    let origin = whitted::offset_origin(hit, dir);
-    let to_target = target - origin;
-    let len = to_target.length();
-    stats.ray(crate::stats::RayKind::Shadow);
-    let shadow = Ray::new(origin, to_target / len);
-    !scene.occluded(&shadow, len * (1.0 - whitted::OFFSET_SCALE), stats)
 }
 
 /// The integrators a render can use, as named on the command line and in

@@ -34,7 +34,8 @@
 //! albedo ρ lit from distance d at angle θ reflects
 //! L = (ρ/π)·I·falloff(d)·cos θ = ρ·c·i·falloff(d)·cos θ: exactly the
 //! Whitted integrator's diffuse term k_d·C·E·(n·l). Lights flagged
-//! `whitted_only` (stand-ins for an emissive surface) are skipped.
+//! `whitted_only` (stand-ins for an emissive surface) are skipped
+//! ([`crate::lighting`]'s rule, [`LightModel::Physical`]).
 //!
 //! **Russian roulette.** Once `rr_start` bounces have been taken, a path
 //! continues with probability q = min(1, max channel of the throughput β)
@@ -48,14 +49,14 @@
 //! or not it uses them, so a sample's numbers never depend on thread count,
 //! on the light list, or on what earlier vertices did.
 
-use super::{visible, Integrator, SampleContext};
-use crate::light::AreaSample;
+use super::{Integrator, SampleContext};
+use crate::lighting::{lambert_area_sample, lambert_point_lights, LightModel};
 use crate::math::{cosine_hemisphere, orthonormal_basis, Color, Ray, SplitMix64, Vec3};
 use crate::scene::Scene;
+use crate::shading::{area_to_solid_angle, cosine_pdf, power_heuristic};
 use crate::shape::Hit;
 use crate::stats::{RayKind, Stats};
 use glam::Vec2;
-use std::f32::consts::FRAC_1_PI;
 
 /// Bounces before Russian roulette starts, by default: the first bounces
 /// carry most of the light, and cutting them early adds variance for
@@ -117,20 +118,6 @@ fn vertex_numbers(ctx: &SampleContext, bounce: u32) -> [f32; DIMS_PER_VERTEX] {
     std::array::from_fn(|_| rng.next_f32())
 }
 
-// ANCHOR: power_heuristic
-/// Veach's power heuristic (β = 2) for one sample from each of two
-/// strategies: the weight of the strategy with density `a`.
-#[inline]
-pub fn power_heuristic(a: f32, b: f32) -> f32 {
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 {
-        a2 / (a2 + b2)
-    } else {
-        0.0
-    }
-}
-// ANCHOR_END: power_heuristic
-
 impl Integrator for PathTracer {
     fn radiance<S: Stats>(
         &self,
@@ -189,10 +176,12 @@ impl PathTracer {
             }
             let u = vertex_numbers(ctx, bounce);
             let n = hit.shading_normal;
-            radiance += beta * albedo * self.point_lights(scene, &hit, stats);
+            radiance +=
+                beta * albedo * lambert_point_lights(scene, &hit, LightModel::Physical, stats);
             if self.strategy != LightStrategy::BsdfOnly {
                 if let Some(s) = scene.area_lights.sample(u[0], Vec2::new(u[1], u[2])) {
-                    radiance += beta * albedo * self.area_light(scene, &hit, &s, stats);
+                    let mis = self.strategy == LightStrategy::Mis;
+                    radiance += beta * albedo * lambert_area_sample(scene, &hit, &s, mis, stats);
                 }
             }
 
@@ -204,9 +193,9 @@ impl PathTracer {
                 // Below the true surface (only with interpolated normals).
                 break;
             }
-            let pdf_brdf = local.z * FRAC_1_PI;
+            let pdf_brdf = cosine_pdf(local.z);
             beta *= albedo;
-            let next_ray = Ray::new(super::whitted::offset_origin(&hit, wi), wi);
+            let next_ray = Ray::new(hit.spawn_origin(wi), wi);
             stats.ray(RayKind::Path);
             let Some(next) = scene.intersect(&next_ray, set.max_distance, stats) else {
                 radiance += beta * set.background;
@@ -239,55 +228,6 @@ impl PathTracer {
     }
     // ANCHOR_END: path_radiance
 
-    /// Σ over point lights of π·arriving(d)·cos θ·V: the reflected radiance
-    /// divided by the albedo (f·I = (ρ/π)·π·c·i; see the module docs).
-    pub(super) fn point_lights<S: Stats>(&self, scene: &Scene, hit: &Hit, stats: &mut S) -> Color {
-        let n = hit.shading_normal;
-        let mut sum = Color::ZERO;
-        for light in scene.lights.iter().filter(|l| !l.whitted_only) {
-            let to_light = light.position - hit.point;
-            let dist = to_light.length();
-            let l = to_light / dist;
-            if n.dot(l) <= 0.0 || hit.geometric_normal.dot(l) <= 0.0 {
-                continue;
-            }
-            if visible(scene, hit, l, light.position, stats) {
-                sum += light.arriving(dist) * n.dot(l);
-            }
-        }
-        // The π of I = π·c·i cancels the 1/π of the BRDF.
-        sum
-    }
-
-    /// One area-light sample's contribution divided by the albedo:
-    /// L_e·cos θ·w/(π·p_l), with the MIS weight w (1 for light-only).
-    pub(super) fn area_light<S: Stats>(
-        &self,
-        scene: &Scene,
-        hit: &Hit,
-        s: &AreaSample,
-        stats: &mut S,
-    ) -> Color {
-        let n = hit.shading_normal;
-        let to = s.point - hit.point;
-        let d2 = to.length_squared();
-        let wi = to / d2.sqrt();
-        let cos_x = n.dot(wi);
-        let cos_l = s.normal.dot(wi).abs();
-        if cos_x <= 0.0 || hit.geometric_normal.dot(wi) <= 0.0 || cos_l <= 0.0 {
-            return Color::ZERO;
-        }
-        let pdf_light = s.pdf_area * d2 / cos_l;
-        if !(pdf_light > 0.0 && pdf_light.is_finite() && visible(scene, hit, wi, s.point, stats)) {
-            return Color::ZERO;
-        }
-        let w = match self.strategy {
-            LightStrategy::Mis => power_heuristic(pdf_light, cos_x * FRAC_1_PI),
-            _ => 1.0,
-        };
-        s.emission * (cos_x * FRAC_1_PI * w / pdf_light)
-    }
-
     /// The weight of emission `le` found at `next` by a BRDF-sampled ray of
     /// direction `wi` and density `pdf_brdf`.
     fn brdf_hit_weight(
@@ -312,7 +252,7 @@ impl PathTracer {
                 if cos_l <= 0.0 {
                     return 1.0;
                 }
-                let pdf_light = pdf_area * next.t * next.t / cos_l;
+                let pdf_light = area_to_solid_angle(pdf_area, next.t * next.t, cos_l);
                 power_heuristic(pdf_brdf, pdf_light)
             }
         }

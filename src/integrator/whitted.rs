@@ -13,36 +13,18 @@
 //! stack holds (object, index) pairs and leaving removes that object's entry
 //! wherever it is, so overlapping objects do not corrupt it.
 //!
-//! Self-intersection: secondary rays start at the hit point moved along the
-//! geometric normal, to the side the new ray leaves on, by
-//! ε = 1e-4 · max(1, max|p_i|). The hit point o + t·d carries a rounding
-//! error of a few ulps of its largest coordinate (≈ 1e-7 relative in f32);
-//! 1e-4 relative is three orders of magnitude above that, yet far below the
-//! size of any feature in our scenes (meshes are fitted to about unit size,
-//! whose triangles are ≥ 1e-3 across). Shadow rays stop the same ε short of
-//! the light.
+//! Self-intersection: secondary rays start at the hit point offset along
+//! the geometric normal ([`Hit::spawn_origin`], [`crate::shape::OFFSET_SCALE`]
+//! says why 1e-4); shadow rays are [`Hit::shadow_segment`]s. The local
+//! terms are [`crate::shading`]'s kernels, and which lights are seen is
+//! [`crate::lighting`]'s rule ([`LightModel::Whitted`]: every point light).
 
 use super::{Integrator, SampleContext};
-use crate::math::{max_abs, reflect, refract, Color, Ray, Vec3};
+use crate::lighting::{point_light_incidence, LightModel};
+use crate::math::{Color, Ray, Vec3, V3};
 use crate::scene::Scene;
-use crate::shape::Hit;
+use crate::shading::{emission_and_ambient, phong, reflect, refract, Phong};
 use crate::stats::{RayKind, Stats};
-
-/// Relative size of the self-intersection offset (see the module docs).
-pub const OFFSET_SCALE: f32 = 1e-4;
-
-/// The offset origin for a ray leaving `hit` towards the side `dir` points
-/// to.
-#[inline]
-pub fn offset_origin(hit: &Hit, dir: Vec3) -> Vec3 {
-    let eps = OFFSET_SCALE * max_abs(hit.point).max(1.0);
-    let n = hit.geometric_normal;
-    if n.dot(dir) >= 0.0 {
-        hit.point + eps * n
-    } else {
-        hit.point - eps * n
-    }
-}
 
 /// Media the ray is inside, innermost last. The outermost medium (air,
 /// index 1) is implicit.
@@ -128,30 +110,29 @@ pub fn trace<S: Stats>(
         return set.background;
     };
     let m = scene.material(&hit);
-    let n = hit.shading_normal;
-    let view = -ray.dir;
-    let albedo = m.color_at(hit.point);
+    let n = V3::from(hit.shading_normal);
+    let view = -V3::from(ray.dir);
+    let albedo = V3::from(m.color_at(hit.point));
 
-    let mut color = m.emission + m.ambient * set.ambient * albedo;
-    for light in &scene.lights {
-        let to_light = light.position - hit.point;
-        let dist = to_light.length();
-        let l = to_light / dist;
-        // Lights behind the surface (as seen from the ray's side) add
-        // nothing; the geometric test keeps shadow rays from starting
-        // inside the object.
-        if n.dot(l) <= 0.0 || hit.geometric_normal.dot(l) <= 0.0 {
-            continue;
+    let mut color = emission_and_ambient(
+        V3::from(m.emission),
+        m.ambient,
+        V3::from(set.ambient),
+        albedo,
+    );
+    let phong_terms = Phong {
+        diffuse: m.diffuse,
+        specular: m.specular,
+        shininess: m.shininess,
+        albedo,
+        specular_color: V3::from(m.specular_color),
+    };
+    for light in scene.lights.iter().filter(|l| LightModel::Whitted.sees(l)) {
+        if let Some(i) = point_light_incidence(scene, &hit, light, stats) {
+            color += phong(&phong_terms, n, V3::from(i.dir), view, V3::from(i.arriving));
         }
-        if !super::visible(scene, &hit, l, light.position, stats) {
-            continue;
-        }
-        let e = light.arriving(dist);
-        let diffuse = m.diffuse * n.dot(l);
-        let r = reflect(-l, n);
-        let specular = m.specular * r.dot(view).max(0.0).powf(m.shininess);
-        color += e * (diffuse * albedo + specular * m.specular_color);
     }
+    let mut color = Color::from(color);
 
     if depth + 1 >= set.max_depth {
         return color;
@@ -167,8 +148,8 @@ pub fn trace<S: Stats>(
         };
         match refract(view, n, n1 / n2) {
             Some(t_dir) => {
-                let t_dir = t_dir.normalize();
-                let r = Ray::new(offset_origin(&hit, t_dir), t_dir);
+                let t_dir = Vec3::from(t_dir).normalize();
+                let r = Ray::new(hit.spawn_origin(t_dir), t_dir);
                 stats.ray(RayKind::Refraction);
                 let w = weight * m.transparency;
                 color += m.transparency * trace(scene, &r, depth + 1, w, next, stats);
@@ -178,8 +159,8 @@ pub fn trace<S: Stats>(
         }
     }
     if reflect_weight > 0.0 && weight * reflect_weight >= set.min_weight {
-        let r_dir = reflect(ray.dir, n).normalize();
-        let r = Ray::new(offset_origin(&hit, r_dir), r_dir);
+        let r_dir = Vec3::from(reflect(V3::from(ray.dir), n)).normalize();
+        let r = Ray::new(hit.spawn_origin(r_dir), r_dir);
         stats.ray(RayKind::Reflection);
         let w = weight * reflect_weight;
         color += reflect_weight * trace(scene, &r, depth + 1, w, media, stats);

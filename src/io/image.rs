@@ -3,12 +3,12 @@
 //! linear RGB.
 
 use super::{write_atomically, InputError};
+use crate::film::{Film, PixelStats};
 use crate::math::{srgb_decode, srgb_encode};
 use ndarray::Array3;
 use std::path::Path;
 
-/// Linear RGB image, shape (height, width, 3), row 0 at the top.
-pub type LinearImage = Array3<f32>;
+pub use crate::film::LinearImage;
 
 /// The file formats raylab writes, chosen by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -124,6 +124,39 @@ pub fn write_exr_channels(
     })
 }
 
+/// Write a film as OpenEXR with its statistics: `R`, `G`, `B` = the
+/// image (each pixel's mean, or the filtered value when a wider filter
+/// made one), `variance.R`, `variance.G`, `variance.B` = the unbiased
+/// sample variance of its samples (divide by `count` for the variance of
+/// the mean), `count` = its number of samples (32-bit unsigned).
+pub fn write_film_exr(path: &Path, film: &Film) -> anyhow::Result<()> {
+    let channel =
+        |f: &dyn Fn(&PixelStats) -> f32| ChannelData::F32(film.pixels.iter().map(f).collect());
+    let image = film.image();
+    let plane = |c: usize| {
+        ChannelData::F32(
+            image
+                .index_axis(ndarray::Axis(2), c)
+                .iter()
+                .copied()
+                .collect(),
+        )
+    };
+    let channels = vec![
+        ("R", plane(0)),
+        ("G", plane(1)),
+        ("B", plane(2)),
+        ("variance.R", channel(&|p| p.variance().x)),
+        ("variance.G", channel(&|p| p.variance().y)),
+        ("variance.B", channel(&|p| p.variance().z)),
+        (
+            "count",
+            ChannelData::U32(film.pixels.iter().map(|p| p.count).collect()),
+        ),
+    ];
+    write_exr_channels(path, film.width as usize, film.height as usize, channels)
+}
+
 /// Every channel of an EXR layer, as read by [`read_exr_channels`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct ExrChannels {
@@ -214,5 +247,40 @@ mod tests {
         for (a, b) in back.iter().zip(img.iter()) {
             assert!((a - b).abs() < 0.01, "{a} vs {b}");
         }
+    }
+
+    /// Every channel comes back as written: f32 and u32 samples are stored
+    /// losslessly, so equality is exact; and `image`'s reader (used for
+    /// references and `raylab diff`) still finds the mean in R, G, B.
+    #[test]
+    fn exr_round_trip_of_statistics_channels() {
+        let mut film = Film::new(3, 2);
+        for (i, p) in film.pixels.iter_mut().enumerate() {
+            for k in 0..=i {
+                p.add(crate::math::Color::new(0.1 * k as f32, 0.5, 2.0 + i as f32));
+            }
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.exr");
+        write_film_exr(&path, &film).unwrap();
+        let exr = read_exr_channels(&path).unwrap();
+        assert_eq!((exr.width, exr.height), (3, 2));
+        let get = |name: &str| {
+            exr.get(name)
+                .unwrap_or_else(|| panic!("no channel {name}"))
+                .to_vec()
+        };
+        let var = film.variance_image();
+        for (i, p) in film.pixels.iter().enumerate() {
+            let (y, x) = (i / 3, i % 3);
+            assert_eq!(get("R")[i], p.mean.x);
+            assert_eq!(get("B")[i], p.mean.z);
+            assert_eq!(get("variance.R")[i], var[[y, x, 0]]);
+            assert_eq!(get("variance.G")[i], var[[y, x, 1]]);
+            assert_eq!(get("count")[i], p.count as f32);
+        }
+        assert!(var[[1, 2, 0]] > 0.0, "the test needs a non-zero variance");
+        let back = read_image(&path).unwrap();
+        assert_eq!(back, film.image());
     }
 }

@@ -5,10 +5,11 @@
 //! n = (S⁻¹Rᵀ)ᵀ n' = R S⁻¹ n'.
 
 use super::sphere::{nearest_root, Sphere};
-use super::{Bounds, PrimHit};
+use super::{Aabb, PrimHit};
 use crate::math::{Mat3, Ray, Vec3};
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Ellipsoid {
     pub centre: Vec3,
     /// S⁻¹Rᵀ: world offsets to unit-sphere coordinates. The rotation and
@@ -51,10 +52,10 @@ impl Ellipsoid {
 
     /// Tight axis-aligned bounds: along world axis i the half-extent is
     /// |row i of R·S|, the support of the transformed unit sphere.
-    pub fn bounds(&self) -> Bounds {
+    pub fn bounds(&self) -> Aabb {
         let m = self.from_unit();
         let half = Vec3::new(m.row(0).length(), m.row(1).length(), m.row(2).length());
-        Bounds {
+        Aabb {
             min: self.centre - half,
             max: self.centre + half,
         }

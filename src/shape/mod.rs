@@ -4,17 +4,19 @@
 //! coordinates needed to shade it; the full [`Hit`] (point, normals) is built
 //! only for the closest hit, after the accelerator has found it.
 
+pub mod arrays;
 pub mod ellipsoid;
 pub mod plane;
 pub mod sphere;
 pub mod triangle;
 
+pub use arrays::{PrimArrays, PrimKind, PrimRef, PrimSource};
 pub use ellipsoid::Ellipsoid;
 pub use plane::Plane;
 pub use sphere::Sphere;
 pub use triangle::Triangle;
 
-use crate::math::{Ray, Vec3};
+use crate::math::{Aabb, Ray, Vec3};
 use crate::stats::Stats;
 
 /// A ray with the per-ray constants that primitive tests reuse: the
@@ -90,6 +92,98 @@ pub struct Hit {
     pub front_face: bool,
 }
 
+/// Relative size of the self-intersection offset of rays leaving a hit:
+/// they start at the hit point moved along the geometric normal, to the
+/// side the new ray leaves on, by ε = 1e-4 · max(1, max|p_i|). The hit
+/// point o + t·d carries a rounding error of a few ulps of its largest
+/// coordinate (≈ 1e-7 relative in f32); 1e-4 relative is three orders of
+/// magnitude above that, yet far below the size of any feature in our
+/// scenes (meshes are fitted to about unit size, whose triangles are
+/// ≥ 1e-3 across). Shadow rays stop the same ε short of their target.
+pub const OFFSET_SCALE: f32 = 1e-4;
+
+impl Hit {
+    /// A surface point with one normal for both roles (no ray, primitive
+    /// or object): the flood-fill cache's wall faces, lit like a hit.
+    pub fn at_surface(point: Vec3, normal: Vec3) -> Hit {
+        Hit {
+            t: 0.0,
+            point,
+            geometric_normal: normal,
+            shading_normal: normal,
+            prim: u32::MAX,
+            object: u32::MAX,
+            front_face: true,
+        }
+    }
+
+    /// The origin of a ray leaving the hit in direction `dir`: the point
+    /// offset by [`OFFSET_SCALE`] to the side `dir` points to.
+    #[inline]
+    pub fn spawn_origin(&self, dir: Vec3) -> Vec3 {
+        let eps = OFFSET_SCALE * crate::math::max_abs(self.point).max(1.0);
+        let n = self.geometric_normal;
+        if n.dot(dir) >= 0.0 {
+            self.point + eps * n
+        } else {
+            self.point - eps * n
+        }
+    }
+
+    /// The shadow segment from the hit towards `target` (`dir` is the unit
+    /// direction to it, which picks the side to start on): a ray with a
+    /// unit direction from the offset origin, and the distance at which it
+    /// stops, ε short of the target. Every shadow ray is built here.
+    #[inline]
+    pub fn shadow_segment(&self, dir: Vec3, target: Vec3) -> (Ray, f32) {
+        let origin = self.spawn_origin(dir);
+        let to_target = target - origin;
+        let len = to_target.length();
+        (
+            Ray::new(origin, to_target / len),
+            len * (1.0 - OFFSET_SCALE),
+        )
+    }
+}
+
+/// A shape's ray test as the accelerators run it: the nearest hit in
+/// (0, `t_max`), counted as one test of the shape's kind.
+pub trait Intersect {
+    fn test<S: Stats>(&self, r: &PreparedRay, t_max: f32, stats: &mut S) -> Option<PrimHit>;
+}
+
+impl Intersect for Sphere {
+    #[inline(always)]
+    fn test<S: Stats>(&self, r: &PreparedRay, t_max: f32, stats: &mut S) -> Option<PrimHit> {
+        stats.sphere_test();
+        self.intersect(&r.ray, t_max)
+    }
+}
+
+impl Intersect for Ellipsoid {
+    #[inline(always)]
+    fn test<S: Stats>(&self, r: &PreparedRay, t_max: f32, stats: &mut S) -> Option<PrimHit> {
+        stats.ellipsoid_test();
+        self.intersect(&r.ray, t_max)
+    }
+}
+
+impl Intersect for Plane {
+    #[inline(always)]
+    fn test<S: Stats>(&self, r: &PreparedRay, t_max: f32, stats: &mut S) -> Option<PrimHit> {
+        stats.plane_test();
+        self.intersect(&r.ray, t_max)
+    }
+}
+
+impl Intersect for Triangle {
+    #[inline(always)]
+    fn test<S: Stats>(&self, r: &PreparedRay, t_max: f32, stats: &mut S) -> Option<PrimHit> {
+        stats.triangle_test();
+        self.intersect(r, t_max)
+    }
+}
+
 /// The geometry of one primitive. An enum rather than a trait object: the
 /// accelerators match on it per test, with no dynamic dispatch.
 #[derive(Clone, Copy, Debug)]
@@ -109,52 +203,12 @@ pub struct Primitive {
     pub object: u32,
 }
 
-/// Axis-aligned bounds of a primitive, or `None` for unbounded shapes.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Bounds {
-    pub min: Vec3,
-    pub max: Vec3,
-}
-
-impl Bounds {
-    pub const EMPTY: Bounds = Bounds {
-        min: Vec3::splat(f32::INFINITY),
-        max: Vec3::splat(f32::NEG_INFINITY),
-    };
-
-    pub fn union(self, o: Bounds) -> Bounds {
-        Bounds {
-            min: self.min.min(o.min),
-            max: self.max.max(o.max),
-        }
-    }
-
-    pub fn include(self, p: Vec3) -> Bounds {
-        Bounds {
-            min: self.min.min(p),
-            max: self.max.max(p),
-        }
-    }
-
-    pub fn centre(&self) -> Vec3 {
-        0.5 * (self.min + self.max)
-    }
-
-    pub fn extent(&self) -> Vec3 {
-        self.max - self.min
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.min.cmpgt(self.max).any()
-    }
-}
-
-/// Bounds of every bounded primitive of a list (planes left out).
-pub fn bounds_of(prims: &[Primitive]) -> Bounds {
+/// Aabb of every bounded primitive of a list (planes left out).
+pub fn bounds_of(prims: &[Primitive]) -> Aabb {
     prims
         .iter()
         .filter_map(Primitive::bounds)
-        .fold(Bounds::EMPTY, Bounds::union)
+        .fold(Aabb::EMPTY, Aabb::union)
 }
 
 /// Number of triangles in a list of primitives.
@@ -175,27 +229,15 @@ impl Primitive {
         stats: &mut S,
     ) -> Option<PrimHit> {
         match &self.shape {
-            Shape::Sphere(s) => {
-                stats.sphere_test();
-                s.intersect(&r.ray, t_max)
-            }
-            Shape::Ellipsoid(e) => {
-                stats.ellipsoid_test();
-                e.intersect(&r.ray, t_max)
-            }
-            Shape::Plane(p) => {
-                stats.plane_test();
-                p.intersect(&r.ray, t_max)
-            }
-            Shape::Triangle(t) => {
-                stats.triangle_test();
-                t.intersect(r, t_max)
-            }
+            Shape::Sphere(s) => s.test(r, t_max, stats),
+            Shape::Ellipsoid(e) => e.test(r, t_max, stats),
+            Shape::Plane(p) => p.test(r, t_max, stats),
+            Shape::Triangle(t) => t.test(r, t_max, stats),
         }
     }
 
     /// Axis-aligned bounds; `None` for an infinite plane.
-    pub fn bounds(&self) -> Option<Bounds> {
+    pub fn bounds(&self) -> Option<Aabb> {
         match &self.shape {
             Shape::Sphere(s) => Some(s.bounds()),
             Shape::Ellipsoid(e) => Some(e.bounds()),

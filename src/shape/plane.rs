@@ -4,7 +4,8 @@
 use super::PrimHit;
 use crate::math::{Ray, Vec3};
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Plane {
     pub point: Vec3,
     /// Unit normal; the "front" side.

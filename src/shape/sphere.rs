@@ -1,9 +1,10 @@
 //! Sphere (S2: (x−a)²+(y−b)²+(z−c)² = r²).
 
-use super::{Bounds, PrimHit};
+use super::{Aabb, PrimHit};
 use crate::math::{Ray, Vec3};
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Sphere {
     pub centre: Vec3,
     pub radius: f32,
@@ -54,9 +55,9 @@ impl Sphere {
         ((p - self.centre) / self.radius).normalize()
     }
 
-    pub fn bounds(&self) -> Bounds {
+    pub fn bounds(&self) -> Aabb {
         let r = Vec3::splat(self.radius.abs());
-        Bounds {
+        Aabb {
             min: self.centre - r,
             max: self.centre + r,
         }

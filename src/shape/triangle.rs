@@ -11,13 +11,14 @@
 //! edge function rounds to exactly zero, it is recomputed in double precision
 //! (the paper's fallback) so the sign decision is exact.
 
-use super::{Bounds, PreparedRay, PrimHit};
+use super::{Aabb, PreparedRay, PrimHit};
 use crate::math::Vec3;
 
 /// Marks a triangle that does not belong to a mesh (no shading normals).
 pub const NO_MESH: u32 = u32::MAX;
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Triangle {
     pub p: [Vec3; 3],
     /// The owning mesh (index into the scene's meshes) or [`NO_MESH`].
@@ -106,8 +107,8 @@ impl Triangle {
             .normalize_or_zero()
     }
 
-    pub fn bounds(&self) -> Bounds {
-        Bounds {
+    pub fn bounds(&self) -> Aabb {
+        Aabb {
             min: self.p[0].min(self.p[1]).min(self.p[2]),
             max: self.p[0].max(self.p[1]).max(self.p[2]),
         }

@@ -22,8 +22,9 @@ use crate::accel::{Accel, AccelKind, Accelerator, BvhConfig, EmbreeConfig};
 use crate::camera::Camera;
 use crate::io::scene_file::{load_scene, Overrides};
 use crate::io::{read_mesh, InputError};
+use crate::math::Aabb;
 use crate::math::{rotation_xyz_degrees, Ray, SplitMix64, Vec3};
-use crate::shape::{Bounds, Ellipsoid, PreparedRay, Primitive, Shape, Sphere, Triangle};
+use crate::shape::{Ellipsoid, PreparedRay, Primitive, Shape, Sphere, Triangle};
 use crate::stats::NoStats;
 use rayon::prelude::*;
 use std::path::Path;
@@ -148,7 +149,7 @@ impl Input {
         })
     }
 
-    pub fn bounds(&self) -> Bounds {
+    pub fn bounds(&self) -> Aabb {
         crate::shape::bounds_of(&self.prims)
     }
 

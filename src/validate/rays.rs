@@ -5,8 +5,9 @@
 //! function of the geometry and a seed.
 
 use crate::camera::Camera;
+use crate::math::Aabb;
 use crate::math::{Ray, SplitMix64, Vec3};
-use crate::shape::{Bounds, Primitive, Shape};
+use crate::shape::{Primitive, Shape};
 use std::collections::HashMap;
 
 /// A named list of rays. Directions are not normalised unless the set says
@@ -74,7 +75,7 @@ impl Topology {
 /// What the ray generators need to know about the geometry.
 pub struct Geometry<'a> {
     pub prims: &'a [Primitive],
-    pub bounds: Bounds,
+    pub bounds: Aabb,
     pub topology: &'a Topology,
     /// The scene's camera, if it has one.
     pub camera: Option<&'a Camera>,

@@ -12,8 +12,9 @@
 
 use super::volume::BoundingVolume;
 use super::{BuildOptions, Builder, Fit, Node, MAX_DEPTH};
+use crate::math::Aabb;
 use crate::math::Vec3;
-use crate::shape::{Bounds, Primitive, Shape};
+use crate::shape::{Primitive, Shape};
 use std::ops::Range;
 
 /// Most bins the SAH builder accepts (the bin arrays live on the stack).
@@ -23,7 +24,7 @@ pub const MAX_BINS: usize = 64;
 #[derive(Clone, Copy, Debug)]
 struct PrimRef {
     id: u32,
-    bounds: Bounds,
+    bounds: Aabb,
     centroid: Vec3,
 }
 
@@ -76,10 +77,10 @@ struct TreeBuilder<'a, V> {
 
 impl<V: BoundingVolume> TreeBuilder<'_, V> {
     /// Box of the primitives in a range.
-    fn bounds(&self, range: Range<usize>) -> Bounds {
+    fn bounds(&self, range: Range<usize>) -> Aabb {
         self.refs[range]
             .iter()
-            .fold(Bounds::EMPTY, |b, r| b.union(r.bounds))
+            .fold(Aabb::EMPTY, |b, r| b.union(r.bounds))
     }
 
     /// The volume of the primitives in a range, with the configured fit.
@@ -130,10 +131,10 @@ impl<V: BoundingVolume> TreeBuilder<'_, V> {
     }
 
     /// Centroid bounds of a range.
-    fn centroid_bounds(&self, range: Range<usize>) -> Bounds {
+    fn centroid_bounds(&self, range: Range<usize>) -> Aabb {
         self.refs[range]
             .iter()
-            .fold(Bounds::EMPTY, |b, r| b.include(r.centroid))
+            .fold(Aabb::EMPTY, |b, r| b.include(r.centroid))
     }
 
     /// S3's builder: split at the median centroid along the longest axis of
@@ -196,7 +197,7 @@ impl<V: BoundingVolume> TreeBuilder<'_, V> {
                 continue;
             };
             let mut count = [0usize; MAX_BINS];
-            let mut boxes = [Bounds::EMPTY; MAX_BINS];
+            let mut boxes = [Aabb::EMPTY; MAX_BINS];
             for r in &self.refs[range.clone()] {
                 let i = bin_index(r.centroid[axis], cb.min[axis], scale, bins);
                 count[i] += 1;
@@ -204,7 +205,7 @@ impl<V: BoundingVolume> TreeBuilder<'_, V> {
             }
             // Right-to-left sweep: area·count of bins i.. for each i.
             let mut right_cost = [0.0f32; MAX_BINS];
-            let (mut acc_box, mut acc_n) = (Bounds::EMPTY, 0usize);
+            let (mut acc_box, mut acc_n) = (Aabb::EMPTY, 0usize);
             for i in (1..bins).rev() {
                 acc_box = acc_box.union(boxes[i]);
                 acc_n += count[i];
@@ -213,7 +214,7 @@ impl<V: BoundingVolume> TreeBuilder<'_, V> {
                     right_cost[i] = V::from_bounds(&acc_box).surface_area() * acc_n as f32;
                 }
             }
-            let (mut acc_box, mut acc_n) = (Bounds::EMPTY, 0usize);
+            let (mut acc_box, mut acc_n) = (Aabb::EMPTY, 0usize);
             for split in 1..bins {
                 acc_box = acc_box.union(boxes[split - 1]);
                 acc_n += count[split - 1];
@@ -254,7 +255,7 @@ impl<V: BoundingVolume> TreeBuilder<'_, V> {
 
 /// Bins per unit length along `axis`, or `None` when the centroid bounds
 /// are flat (or not finite) along it.
-fn bin_scale(cb: &Bounds, axis: usize, bins: usize) -> Option<f32> {
+fn bin_scale(cb: &Aabb, axis: usize, bins: usize) -> Option<f32> {
     let extent = cb.max[axis] - cb.min[axis];
     let scale = bins as f32 / extent;
     (extent > 0.0 && scale.is_finite()).then_some(scale)
@@ -268,7 +269,7 @@ fn bin_index(c: f32, min: f32, scale: f32, bins: usize) -> usize {
 }
 
 /// Axis of largest extent (x on ties).
-fn longest_axis(b: &Bounds) -> usize {
+fn longest_axis(b: &Aabb) -> usize {
     let e = b.extent();
     if e.x >= e.y && e.x >= e.z {
         0
@@ -281,7 +282,7 @@ fn longest_axis(b: &Bounds) -> usize {
 
 /// Points whose convex hull contains the primitive: a triangle's vertices,
 /// otherwise the 8 corners of its box.
-fn support_points(prim: &Primitive, bounds: &Bounds, out: &mut Vec<Vec3>) {
+fn support_points(prim: &Primitive, bounds: &Aabb, out: &mut Vec<Vec3>) {
     match &prim.shape {
         Shape::Triangle(t) => out.extend_from_slice(&t.p),
         _ => out.extend((0..8).map(|i| {

@@ -11,11 +11,12 @@ pub mod traverse;
 pub mod volume;
 pub mod wide;
 
-pub use volume::{Aabb, BoundingEllipsoid, BoundingSphere, BoundingVolume};
+pub use crate::math::Aabb;
+pub use volume::{BoundingEllipsoid, BoundingSphere, BoundingVolume};
 pub use wide::Bvh4;
 
 use super::Accel;
-use crate::shape::{Bounds, PreparedRay, PrimHit, Primitive};
+use crate::shape::{PreparedRay, PrimArrays, PrimHit, Primitive};
 use crate::stats::{NoStats, Stats};
 use std::fmt;
 use std::str::FromStr;
@@ -159,7 +160,7 @@ pub struct Bvh<V: BoundingVolume> {
     /// its primitives from one contiguous run rather than through the
     /// index array (one memory access instead of two dependent ones, for
     /// the price of a second copy of the primitives).
-    leaf_prims: Vec<Primitive>,
+    leaf_prims: PrimArrays,
     options: BuildOptions,
     build_seconds: f64,
 }
@@ -171,7 +172,7 @@ impl<V: BoundingVolume> Bvh<V> {
         let start = Instant::now();
         let (nodes, indices) = build::build(prims, ids, &options);
         let packed = pack(&nodes);
-        let leaf_prims = indices.iter().map(|&i| prims[i as usize]).collect();
+        let leaf_prims = PrimArrays::new(indices.iter().map(|&i| &prims[i as usize]));
         Bvh {
             nodes,
             packed,
@@ -190,7 +191,7 @@ impl<V: BoundingVolume> Bvh<V> {
 
     /// The node array, the index array and the leaf-ordered primitives,
     /// for the 4-wide tree built from this one.
-    pub(super) fn into_parts(self) -> (Vec<Node<V>>, Vec<u32>, Vec<Primitive>) {
+    pub(super) fn into_parts(self) -> (Vec<Node<V>>, Vec<u32>, PrimArrays) {
         (self.nodes, self.indices, self.leaf_prims)
     }
 
@@ -210,7 +211,7 @@ impl<V: BoundingVolume> Bvh<V> {
             memory_bytes: std::mem::size_of_val(self.nodes.as_slice())
                 + std::mem::size_of_val(self.packed.as_slice())
                 + std::mem::size_of_val(self.indices.as_slice())
-                + std::mem::size_of_val(self.leaf_prims.as_slice()),
+                + self.leaf_prims.memory_bytes(),
             build_seconds: self.build_seconds,
             ..BvhStats::default()
         };
@@ -225,7 +226,7 @@ impl<V: BoundingVolume> Bvh<V> {
         let mut sah = 0.0f64;
         // Post-order over (node, depth), computing each node's content box
         // from its children's; `boxes` is indexed by node.
-        let mut boxes = vec![Bounds::EMPTY; self.nodes.len()];
+        let mut boxes = vec![Aabb::EMPTY; self.nodes.len()];
         let mut stack = vec![(0usize, 0usize, false)];
         while let Some((i, depth, children_done)) = stack.pop() {
             let n = &self.nodes[i];
@@ -248,12 +249,12 @@ impl<V: BoundingVolume> Bvh<V> {
                 self.indices[n.first as usize..(n.first + n.count) as usize]
                     .iter()
                     .filter_map(|&id| prims[id as usize].bounds())
-                    .fold(Bounds::EMPTY, Bounds::union)
+                    .fold(Aabb::EMPTY, Aabb::union)
             } else {
                 sah += weight * self.options.traversal_cost as f64;
                 boxes[n.first as usize].union(boxes[n.first as usize + 1])
             };
-            let content = Aabb::from(boxes[i]);
+            let content = boxes[i];
             let (a, v) = (content.surface_area(), content.volume());
             if a > 0.0 {
                 area_ratio_sum += (n.volume.surface_area() / a) as f64;

@@ -17,7 +17,7 @@
 use super::volume::BoundingVolume;
 use super::{Bvh, MAX_DEPTH};
 use crate::accel::brute::{any_of, closest_of};
-use crate::shape::{PreparedRay, PrimHit, Primitive};
+use crate::shape::{PreparedRay, PrimArrays, PrimHit};
 use crate::stats::Stats;
 
 impl<V: BoundingVolume> Bvh<V> {
@@ -100,14 +100,14 @@ impl<V: BoundingVolume> Bvh<V> {
     // ANCHOR_END: traverse
 }
 
-/// Test the primitives of one leaf, `range` of the leaf-ordered copies
-/// `leaf_prims` (whose scene indices are `indices[range]`). With `ANY_HIT`
+/// Test the primitives of one leaf: slots `range` of the leaf-ordered
+/// arrays `leaf` (whose scene indices are `indices[range]`). With `ANY_HIT`
 /// returns whether one is hit in (0, t_max); otherwise records the closest
 /// in `best`, shrinking `t_max`, and returns false. Shared by the binary and
 /// the 4-wide traversal.
 #[inline(always)]
 pub(super) fn test_leaf<S: Stats, const ANY_HIT: bool>(
-    leaf_prims: &[Primitive],
+    leaf: &PrimArrays,
     indices: &[u32],
     range: std::ops::Range<usize>,
     ray: &PreparedRay,
@@ -115,12 +115,11 @@ pub(super) fn test_leaf<S: Stats, const ANY_HIT: bool>(
     best: &mut Option<(u32, PrimHit)>,
     stats: &mut S,
 ) -> bool {
-    let local = &leaf_prims[range.clone()];
     if ANY_HIT {
-        any_of(local.iter(), ray, *t_max, stats)
+        any_of(leaf, range, ray, *t_max, stats)
     } else {
-        let ids = indices[range].iter().copied();
-        closest_of(ids.zip(local), ray, t_max, best, stats);
+        let ids = indices[range.clone()].iter().copied();
+        closest_of(leaf, ids.zip(range), ray, t_max, best, stats);
         false
     }
 }

@@ -11,9 +11,9 @@
 //! by [`FIT_PAD`] and the ray tests allow for their own rounding (the box
 //! after Ize, the quadrics by a per-ray margin), see each test.
 
-use crate::math::{Ray, Vec3};
+use crate::math::{slab4, Aabb, Ray, Vec3};
 use crate::shape::sphere::Sphere;
-use crate::shape::{Bounds, PreparedRay};
+use crate::shape::PreparedRay;
 use crate::stats::Stats;
 use glam::{Vec4, Vec4Swizzles};
 use std::f32::consts::PI;
@@ -32,13 +32,6 @@ pub const FIT_PAD: f32 = 1.0 + 1.0e-6;
 /// radius by 32ε·(|o − c| + r) keeps the test conservative, including for
 /// tangent rays.
 const QUADRIC_MARGIN: f32 = 32.0 * UNIT_ROUNDOFF;
-
-/// Ize's bound for the slab test ("Robust BVH Ray Traversal", JCGT 2(2),
-/// 2013, §3): scaling the exit distance by 1 + 2γ₃, γₙ = nε/(1 − nε), makes
-/// the computed interval overlap the exact one whenever the exact one is not
-/// empty, so rays through edges and corners of a box are never lost.
-pub(super) const SLAB_EXIT_SCALE: f32 =
-    1.0 + 2.0 * (3.0 * UNIT_ROUNDOFF / (1.0 - 3.0 * UNIT_ROUNDOFF));
 
 /// ε = 2⁻²⁴, the largest relative error of one rounded f32 operation.
 const UNIT_ROUNDOFF: f32 = f32::EPSILON * 0.5;
@@ -59,14 +52,14 @@ pub trait BoundingVolume: Copy + Send + Sync + fmt::Debug + PartialEq + 'static 
     /// S3's fit: the volume derived from the axis-aligned box of the
     /// enclosed geometry alone. It contains the whole box, so it contains
     /// anything inside the box.
-    fn from_bounds(b: &Bounds) -> Self;
+    fn from_bounds(b: &Aabb) -> Self;
 
     /// A tighter fit over `points`, the support points of the enclosed
     /// primitives (points whose convex hull contains them: a triangle's
     /// vertices, the corners of a quadric's box), whose box is `b`. Since
     /// every volume here is convex, enclosing the points encloses the
     /// primitives.
-    fn fit_points(points: &[Vec3], b: &Bounds) -> Self;
+    fn fit_points(points: &[Vec3], b: &Aabb) -> Self;
 
     /// Whether the ray meets the volume somewhere in [0, `t_max`]; if so,
     /// the entry distance clamped to 0 (a ray starting inside enters at 0),
@@ -84,7 +77,7 @@ pub trait BoundingVolume: Copy + Send + Sync + fmt::Debug + PartialEq + 'static 
     fn volume(&self) -> f32;
 
     /// Axis-aligned bounds of the volume itself.
-    fn bounds(&self) -> Bounds;
+    fn bounds(&self) -> Aabb;
 
     /// Whether `p` lies inside the volume scaled about its centre by
     /// 1 + `tol`; for consistency checks of built trees.
@@ -109,23 +102,6 @@ pub trait BoundingVolume: Copy + Send + Sync + fmt::Debug + PartialEq + 'static 
     ) -> [Option<f32>; 2];
 }
 
-/// Axis-aligned box, intersected with the slab test (Kay & Kajiya 1986).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Aabb {
-    pub min: Vec3,
-    pub max: Vec3,
-}
-
-impl From<Bounds> for Aabb {
-    fn from(b: Bounds) -> Self {
-        Aabb {
-            min: b.min,
-            max: b.max,
-        }
-    }
-}
-
 impl BoundingVolume for Aabb {
     type Pair = AabbPair;
 
@@ -137,11 +113,10 @@ impl BoundingVolume for Aabb {
         }
     }
 
-    /// The slab test of [`Aabb::hit`] for two boxes at once: per axis, one
-    /// 4-wide subtract and multiply give [t_min(l), t_min(r), t_max(l),
-    /// t_max(r)]; min and max against the halves swapped give the near and
-    /// far planes of both boxes. The operations and their order are those of
-    /// the one-box test, so the results are bit-identical to it.
+    /// The slab test for two boxes at once: [`slab4`] with lanes [left,
+    /// right, left, right] and the planes of lanes 2 and 3 swapped (they
+    /// repeat the two boxes and are ignored), so one 4-wide test serves the
+    /// pair, bit-identical to [`Aabb::slab`] on each box.
     #[inline]
     fn hit_pair<S: Stats>(
         p: &AabbPair,
@@ -151,85 +126,45 @@ impl BoundingVolume for Aabb {
     ) -> [Option<f32>; 2] {
         stats.box_test();
         stats.box_test();
-        let (o, inv) = (ray.ray.origin, ray.inv_dir);
-        // Near and far planes of both boxes along one axis: lanes 0 and 1
-        // of the two results.
-        let slab = |lanes: Vec4, o: f32, inv: f32| {
-            let t = (lanes - Vec4::splat(o)) * Vec4::splat(inv);
-            let swapped = t.zwxy();
-            // As in `hit`: a NaN (parallel ray starting on a plane) frees
-            // the axis for that box.
-            let nan = t.is_nan_mask() | swapped.is_nan_mask();
-            (
-                Vec4::select(nan, Vec4::NEG_INFINITY, t.min(swapped)),
-                Vec4::select(nan, Vec4::INFINITY, t.max(swapped)),
-            )
-        };
-        let (nx, fx) = slab(p.x, o.x, inv.x);
-        let (ny, fy) = slab(p.y, o.y, inv.y);
-        let (nz, fz) = slab(p.z, o.z, inv.z);
-        let enter = nx.max(ny).max(nz);
-        let exit = fx.min(fy).min(fz) * SLAB_EXIT_SCALE;
-        let ok = enter.cmple(exit) & exit.cmpge(Vec4::ZERO) & enter.cmple(Vec4::splat(t_max));
-        let bits = ok.bitmask();
+        let lo = [p.x, p.y, p.z];
+        let hi = [p.x.zwxy(), p.y.zwxy(), p.z.zwxy()];
+        let (enter, bits) = slab4(&lo, &hi, ray.ray.origin, ray.inv_dir, t_max);
         [
-            (bits & 1 != 0).then(|| enter.x.max(0.0)),
-            (bits & 2 != 0).then(|| enter.y.max(0.0)),
+            (bits & 1 != 0).then_some(enter.x),
+            (bits & 2 != 0).then_some(enter.y),
         ]
     }
 
     const NAME: &'static str = "aabb";
     const ROUND_ROBIN_AXES: bool = false;
 
-    fn from_bounds(b: &Bounds) -> Self {
-        Aabb::from(*b)
+    fn from_bounds(b: &Aabb) -> Self {
+        *b
     }
 
     /// The box of the points is the box of the primitives: nothing tighter
     /// exists for an axis-aligned box.
-    fn fit_points(_points: &[Vec3], b: &Bounds) -> Self {
-        Aabb::from(*b)
+    fn fit_points(_points: &[Vec3], b: &Aabb) -> Self {
+        *b
     }
 
-    // ANCHOR: slab
-    /// Slab test: per axis the ray is inside the slab for t between
-    /// (min − o)/d and (max − o)/d, computed with the precomputed 1/d; the
-    /// box is hit where the three intervals overlap.
+    /// The slab test ([`Aabb::slab`]), counted.
     #[inline]
     fn hit<S: Stats>(&self, ray: &PreparedRay, t_max: f32, stats: &mut S) -> Option<f32> {
         stats.box_test();
-        let o = ray.ray.origin;
-        let t0 = (self.min - o) * ray.inv_dir;
-        let t1 = (self.max - o) * ray.inv_dir;
-        // 0·∞ = NaN arises only when the ray is parallel to an axis (1/d =
-        // ±∞) and starts exactly on one of that slab's planes: it then stays
-        // in the closed slab for every t, so that axis must not constrain
-        // the interval. Replace its bounds by (−∞, +∞) explicitly rather
-        // than relying on how min/max treat NaN.
-        let free = t0.is_nan_mask() | t1.is_nan_mask();
-        let near = Vec3::select(free, Vec3::NEG_INFINITY, t0.min(t1));
-        let far = Vec3::select(free, Vec3::INFINITY, t0.max(t1));
-        let t_enter = near.max_element();
-        let t_exit = far.min_element() * SLAB_EXIT_SCALE;
-        (t_enter <= t_exit && t_exit >= 0.0 && t_enter <= t_max).then_some(t_enter.max(0.0))
+        self.slab(ray.ray.origin, ray.inv_dir, t_max)
     }
-    // ANCHOR_END: slab
 
     fn surface_area(&self) -> f32 {
-        let e = (self.max - self.min).max(Vec3::ZERO);
-        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+        Aabb::surface_area(self)
     }
 
     fn volume(&self) -> f32 {
-        let e = (self.max - self.min).max(Vec3::ZERO);
-        e.x * e.y * e.z
+        Aabb::volume(self)
     }
 
-    fn bounds(&self) -> Bounds {
-        Bounds {
-            min: self.min,
-            max: self.max,
-        }
+    fn bounds(&self) -> Aabb {
+        *self
     }
 
     fn contains(&self, p: Vec3, tol: f32) -> bool {
@@ -239,7 +174,7 @@ impl BoundingVolume for Aabb {
     }
 }
 
-/// Two sibling boxes transposed for [`Aabb::hit_pair`]: per axis, the lanes
+/// Two sibling boxes transposed for `hit_pair`: per axis, the lanes
 /// are [left min, right min, left max, right max]. 48 bytes, 16-aligned.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -282,7 +217,7 @@ impl BoundingVolume for BoundingSphere {
 
     /// S3's fit: centre = midpoint of the box's min and max corners,
     /// radius = distance from the centre to the corners.
-    fn from_bounds(b: &Bounds) -> Self {
+    fn from_bounds(b: &Aabb) -> Self {
         let (centre, h) = centre_and_half_extent(b);
         BoundingSphere {
             centre,
@@ -293,7 +228,7 @@ impl BoundingVolume for BoundingSphere {
     /// The smaller of Ritter's sphere and the sphere about the box centre
     /// through the farthest point (see `tight_ball`); never larger than
     /// S3's fit, whose radius reaches the box corners.
-    fn fit_points(points: &[Vec3], b: &Bounds) -> Self {
+    fn fit_points(points: &[Vec3], b: &Aabb) -> Self {
         let (centre, radius) = tight_ball(points, b.centre(), |p| p);
         BoundingSphere {
             centre,
@@ -322,9 +257,9 @@ impl BoundingVolume for BoundingSphere {
         4.0 / 3.0 * PI * self.radius * self.radius * self.radius
     }
 
-    fn bounds(&self) -> Bounds {
+    fn bounds(&self) -> Aabb {
         let r = Vec3::splat(self.radius);
-        Bounds {
+        Aabb {
             min: self.centre - r,
             max: self.centre + r,
         }
@@ -364,7 +299,7 @@ impl BoundingEllipsoid {
 /// up to ε·|centre|, which can be large next to a small box, so each
 /// half-extent is the larger of max − c and c − min. Every point of the box
 /// is then within hᵢ of c along each axis, whatever the rounding.
-fn centre_and_half_extent(b: &Bounds) -> (Vec3, Vec3) {
+fn centre_and_half_extent(b: &Aabb) -> (Vec3, Vec3) {
     let c = b.centre();
     (c, (b.max - c).max(c - b.min).max(Vec3::ZERO))
 }
@@ -374,7 +309,7 @@ fn centre_and_half_extent(b: &Bounds) -> (Vec3, Vec3) {
 /// leaf holding one axis-aligned triangle) would otherwise give an
 /// ellipsoid of radius 0, whose reciprocal is infinite. The floor thickens
 /// such ellipsoids by a thousandth of their size.
-fn floored_half_extent(b: &Bounds) -> (Vec3, Vec3) {
+fn floored_half_extent(b: &Aabb) -> (Vec3, Vec3) {
     let (c, h) = centre_and_half_extent(b);
     let floor = (h.max_element() * (1.0 / 1024.0)).max(f32::MIN_POSITIVE);
     (c, h.max(Vec3::splat(floor)))
@@ -408,7 +343,7 @@ impl BoundingVolume for BoundingEllipsoid {
     /// the cube [−1, 1]³, take the cube's circumscribed sphere (radius √3,
     /// through the 8 corners), and scale back; the ellipsoid passes through
     /// the box's corners, so it contains the box.
-    fn from_bounds(b: &Bounds) -> Self {
+    fn from_bounds(b: &Aabb) -> Self {
         let (c, h) = floored_half_extent(b);
         Self::new(c, h * (3.0f32.sqrt() * FIT_PAD))
     }
@@ -421,7 +356,7 @@ impl BoundingVolume for BoundingEllipsoid {
     /// axis-aligned ellipsoid, and a linear map preserves containment. The
     /// scale is measured again from the centre as rounded in world space,
     /// for the reason given at `centre_and_half_extent`.
-    fn fit_points(points: &[Vec3], b: &Bounds) -> Self {
+    fn fit_points(points: &[Vec3], b: &Aabb) -> Self {
         let (c, h) = floored_half_extent(b);
         let inv_h = h.recip();
         let (qc, _) = tight_ball(points, Vec3::ZERO, |p| (p - c) * inv_h);
@@ -471,9 +406,9 @@ impl BoundingVolume for BoundingEllipsoid {
         4.0 / 3.0 * PI * r.x * r.y * r.z
     }
 
-    fn bounds(&self) -> Bounds {
+    fn bounds(&self) -> Aabb {
         let r = self.radii();
-        Bounds {
+        Aabb {
             min: self.centre - r,
             max: self.centre + r,
         }
@@ -597,7 +532,7 @@ mod tests {
 
     #[test]
     fn s3_ellipsoid_passes_through_the_box_corners() {
-        let b = Bounds {
+        let b = Aabb {
             min: Vec3::new(-1.0, 2.0, 0.0),
             max: Vec3::new(3.0, 3.0, 0.5),
         };
@@ -633,7 +568,7 @@ mod tests {
                 Vec3::new(3.0 * a.cos(), a.sin(), 0.1 * (i % 5) as f32)
             })
             .collect();
-        let b = pts.iter().fold(Bounds::EMPTY, |b, &p| b.include(p));
+        let b = pts.iter().fold(Aabb::EMPTY, |b, &p| b.include(p));
         let s = BoundingSphere::fit_points(&pts, &b);
         let e = BoundingEllipsoid::fit_points(&pts, &b);
         assert!(pts

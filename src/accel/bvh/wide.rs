@@ -13,7 +13,7 @@
 //! the interior child of largest surface area by its two children until
 //! there are four or only leaves are left (the greedy rule of Wald et al.,
 //! "Getting Rid of Packets", 2008). Leaves and their primitives are the
-//! binary tree's and the box test is the one of [`Aabb::hit`] lane by lane
+//! binary tree's and the box test is the one of [`Aabb::slab`] lane by lane
 //! (bit-identical entry and exit distances), so every ray finds the same
 //! closest distance as with the binary tree (which of two primitives at
 //! exactly the same distance wins may differ, as between any two trees).
@@ -23,12 +23,13 @@
 //! root's box), primitive tests as the primitives count them.
 
 use super::traverse::{pop_live, test_leaf};
-use super::volume::{Aabb, BoundingVolume, SLAB_EXIT_SCALE};
+use super::volume::BoundingVolume;
 use super::{BuildOptions, Bvh, MAX_DEPTH};
 use crate::accel::Accel;
-use crate::shape::{PreparedRay, PrimHit, Primitive};
+use crate::math::{slab4, Aabb};
+use crate::shape::{PreparedRay, PrimArrays, PrimHit, Primitive};
 use crate::stats::Stats;
-use glam::{BVec4A, Vec4};
+use glam::Vec4;
 
 /// One 4-wide node: the children's boxes transposed (lane i = child i),
 /// then per child either a wide node index (`count == 0`) or a leaf's run
@@ -62,7 +63,7 @@ pub struct Bvh4 {
     root: Ref,
     nodes: Vec<Node4>,
     indices: Vec<u32>,
-    leaf_prims: Vec<Primitive>,
+    leaf_prims: PrimArrays,
     build_seconds: f64,
 }
 
@@ -112,32 +113,19 @@ impl Bvh4 {
     pub fn memory_bytes(&self) -> usize {
         std::mem::size_of_val(self.nodes.as_slice())
             + std::mem::size_of_val(self.indices.as_slice())
-            + std::mem::size_of_val(self.leaf_prims.as_slice())
+            + self.leaf_prims.memory_bytes()
     }
 
     /// Entry distances of the (up to four) children of `n`, lane by lane
-    /// the slab test of [`Aabb::hit`]; the mask says which were hit.
+    /// the slab test of [`Aabb::slab`]; the mask says which were hit.
     #[inline]
     fn hit4<S: Stats>(n: &Node4, ray: &PreparedRay, t_max: f32, stats: &mut S) -> (Vec4, u32) {
         for _ in 0..n.children {
             stats.box_test();
         }
-        let o = ray.ray.origin.to_array();
-        let inv = ray.inv_dir.to_array();
-        let mut enter = Vec4::NEG_INFINITY;
-        let mut exit = Vec4::INFINITY;
-        for a in 0..3 {
-            let (os, is) = (Vec4::splat(o[a]), Vec4::splat(inv[a]));
-            let t0 = (n.min[a] - os) * is;
-            let t1 = (n.max[a] - os) * is;
-            let free: BVec4A = t0.is_nan_mask() | t1.is_nan_mask();
-            enter = enter.max(Vec4::select(free, Vec4::NEG_INFINITY, t0.min(t1)));
-            exit = exit.min(Vec4::select(free, Vec4::INFINITY, t0.max(t1)));
-        }
-        let exit = exit * SLAB_EXIT_SCALE;
-        let ok = enter.cmple(exit) & exit.cmpge(Vec4::ZERO) & enter.cmple(Vec4::splat(t_max));
+        let (enter, mask) = slab4(&n.min, &n.max, ray.ray.origin, ray.inv_dir, t_max);
         let valid = (1u32 << n.children) - 1;
-        (enter.max(Vec4::ZERO), ok.bitmask() & valid)
+        (enter, mask & valid)
     }
 
     /// The traversal, closest hit or (`ANY_HIT`) any hit; see the binary
@@ -337,10 +325,7 @@ mod tests {
                     seen[id as usize] += 1;
                     let pb = prims[id as usize].bounds().unwrap();
                     assert!(pb.min.cmpge(b.min).all() && pb.max.cmple(b.max).all());
-                    assert_eq!(
-                        t.leaf_prims[j as usize].bounds(),
-                        prims[id as usize].bounds()
-                    );
+                    assert_eq!(t.leaf_prims.bounds(j as usize), prims[id as usize].bounds());
                 }
                 continue;
             }

@@ -4,7 +4,7 @@
 //!
 //! One run loads a scene, builds both accelerators (each build timed:
 //! `warmup` untimed builds, then `repeats` timed ones, medians reported),
-//! makes the four ray sets of [`crate::accel::workload`] (primary, shadow,
+//! makes the four ray sets of [`crate::workload`] (primary, shadow,
 //! diffuse, random) once, and then, for each set, times the two
 //! accelerators alternately (`warmup` untimed passes each, then `repeats`
 //! timed passes of A, B, A, B, …) so that a disturbance of the machine
@@ -27,13 +27,13 @@ use super::{
     int_param, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study,
     StudySettings, Timings,
 };
-use crate::accel::workload::{trace, trace_serial, RayKind, Segment, Workload};
 use crate::accel::{Accel, AccelKind, Accelerator};
 use crate::experiment::sweep::RunPoint;
 use crate::io::scene_file::{load_scene, Overrides};
 use crate::scene::Scene;
 use crate::shape::PreparedRay;
 use crate::stats::{Counters, NoStats};
+use crate::workload::{trace, trace_serial, Segment, Workload};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -153,7 +153,7 @@ impl Study for AccelSpeed {
         for side in SIDES {
             cols.push(format!("{side}_build_median_s"));
         }
-        for k in RayKind::ALL {
+        for k in Workload::KINDS {
             cols.push(format!("{k}_rays"));
             cols.push(format!("{k}_hits"));
             cols.push(format!("{k}_hit_disagree"));
@@ -209,7 +209,7 @@ impl Study for AccelSpeed {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(cfg.threads)
             .build()?;
-        for k in RayKind::ALL {
+        for k in Workload::KINDS {
             let rays = work.get(k);
             let flags: Vec<Vec<bool>> = sides
                 .iter()

@@ -315,8 +315,12 @@ impl Study for FloodFillStudy {
         let start = Instant::now();
         let grid = VoxelGrid::from_scene(&scene, &GridSpec::new(cfg.resolution))
             .map_err(|e| anyhow::anyhow!("{}: {e}", cfg.scene.display()))?;
-        let mut ff = FloodFill::new(&grid, cfg.ff, crate::gi::point_light_direct(&scene))
-            .map_err(anyhow::Error::msg)?;
+        let mut ff = FloodFill::new(
+            &grid,
+            cfg.ff,
+            crate::gi::wall_light(&scene, &cfg.ff, crate::gi::DEFAULT_WALL_LIGHT_SAMPLES),
+        )
+        .map_err(anyhow::Error::msg)?;
         let build_s = start.elapsed().as_secs_f64();
 
         let dims = grid.dims();

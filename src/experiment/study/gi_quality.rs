@@ -269,7 +269,7 @@ fn reference_image(
                 let (film, _) = integrator
                     .render::<NoStats>(&s, None)
                     .map_err(anyhow::Error::msg)?;
-                film.write_exr(&path)?;
+                crate::io::image::write_film_exr(&path, &film)?;
             }
             path
         }

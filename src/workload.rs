@@ -4,91 +4,36 @@
 //! (`analysis/embree-speed.toml`) both measure on these sets.
 //!
 //! Four kinds of ray, after the usual split of a renderer's work:
-//! - [`RayKind::Primary`]: camera rays through the pixel centres of the
+//! - [`RayKind::Camera`] ("primary"): camera rays through the pixel centres of the
 //!   scene's camera (closest hit);
 //! - [`RayKind::Shadow`]: from each primary hit (mesh or floor) towards the
 //!   scene's first light, stopping just short of it (any hit);
-//! - [`RayKind::Diffuse`]: from each primary hit, one cosine-distributed
+//! - [`RayKind::Path`] ("diffuse"): from each primary hit, one cosine-distributed
 //!   direction about the shading normal (closest hit): incoherent rays, as
 //!   a path tracer's first bounce makes;
 //! - [`RayKind::Random`]: from a random point on the sphere around the
 //!   scene's bounds (centre, radius = the box's diagonal) through a uniform
-//!   random point of the box (closest hit): the least coherent set, as in
-//!   the Embree comparison figures of the issue.
+//!   random point of the box (closest hit): the least coherent set.
 //!
 //! Secondary rays start at the hit point offset along the geometric normal
-//! as the Whitted integrator does ([`offset_origin`]). Every set is a pure
+//! as every renderer's ray does ([`crate::shape::Hit::spawn_origin`]; shadow
+//! rays are [`crate::shape::Hit::shadow_segment`]s). Every set is a pure
 //! function of the scene and the seed.
 
-use super::Accel;
-use crate::integrator::whitted::offset_origin;
-use crate::math::{orthonormal_basis, Ray, SplitMix64, Vec3};
+use crate::accel::Accel;
+use crate::math::{cosine_hemisphere, orthonormal_basis, Ray, SplitMix64, Vec3};
 use crate::scene::Scene;
 use crate::shape::PreparedRay;
+pub use crate::stats::RayKind;
 use crate::stats::{NoStats, Stats};
+use glam::Vec2;
 use rayon::prelude::*;
-use std::f32::consts::PI;
-use std::fmt;
-use std::str::FromStr;
 
 /// One ray to trace and its far limit.
 #[derive(Clone, Copy, Debug)]
 pub struct Segment {
     pub ray: PreparedRay,
     pub t_max: f32,
-}
-
-/// The kinds of ray a workload holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum RayKind {
-    Primary,
-    Shadow,
-    Diffuse,
-    Random,
-}
-
-impl RayKind {
-    /// Every kind, in the order tables list them.
-    pub const ALL: [RayKind; 4] = [
-        RayKind::Primary,
-        RayKind::Shadow,
-        RayKind::Diffuse,
-        RayKind::Random,
-    ];
-
-    /// The kind's name in tables and parameters.
-    pub fn name(self) -> &'static str {
-        match self {
-            RayKind::Primary => "primary",
-            RayKind::Shadow => "shadow",
-            RayKind::Diffuse => "diffuse",
-            RayKind::Random => "random",
-        }
-    }
-
-    /// Shadow rays ask whether anything is hit (any-hit query); the others
-    /// ask for the closest hit.
-    pub fn any_hit(self) -> bool {
-        self == RayKind::Shadow
-    }
-}
-
-impl fmt::Display for RayKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for RayKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        RayKind::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| {
-                format!("unknown ray kind `{s}` (expected primary, shadow, diffuse or random)")
-            })
-    }
 }
 
 /// The four ray sets of one scene.
@@ -108,14 +53,13 @@ fn stream(seed: u64, i: u64) -> SplitMix64 {
 }
 
 /// A cosine-distributed unit direction about the unit vector `n` from two
-/// uniform numbers: Malley's method (a uniform point on the unit disc lifted
-/// to the hemisphere, pbrt-v4 §A.5.3) in the frame of
-/// [`orthonormal_basis`].
+/// uniform numbers: the path tracer's warp ([`cosine_hemisphere`]) in the
+/// frame of [`orthonormal_basis`], so a diffuse workload ray is the ray a
+/// path tracer's first bounce would trace.
 pub fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
-    let (t, bt) = orthonormal_basis(n);
-    let (r, phi) = (u1.sqrt(), 2.0 * PI * u2);
-    let z = (1.0 - u1).max(0.0).sqrt();
-    (r * phi.cos() * t + r * phi.sin() * bt + z * n).normalize()
+    let (t, b) = orthonormal_basis(n);
+    let local = cosine_hemisphere(Vec2::new(u1, u2));
+    (local.x * t + local.y * b + local.z * n).normalize()
 }
 
 impl Workload {
@@ -143,18 +87,16 @@ impl Workload {
                     return (primary, None, None);
                 };
                 let shadow = light.map(|lp| {
-                    let o = offset_origin(&hit, (lp - hit.point).normalize());
-                    let d = lp - o;
-                    let len = d.length();
+                    let (ray, t_max) = hit.shadow_segment((lp - hit.point).normalize(), lp);
                     Segment {
-                        ray: PreparedRay::new(Ray::new(o, d / len)),
-                        t_max: len * (1.0 - 1e-4),
+                        ray: PreparedRay::new(ray),
+                        t_max,
                     }
                 });
                 let mut rng = stream(seed, u64::from(py) * u64::from(cam.width) + u64::from(px));
                 let dir = cosine_direction(hit.shading_normal, rng.next_f32(), rng.next_f32());
                 let diffuse = Segment {
-                    ray: PreparedRay::new(Ray::new(offset_origin(&hit, dir), dir)),
+                    ray: PreparedRay::new(Ray::new(hit.spawn_origin(dir), dir)),
                     t_max: far,
                 };
                 (primary, shadow, Some(diffuse))
@@ -172,13 +114,22 @@ impl Workload {
         w
     }
 
-    /// The set of one kind.
+    /// The kinds of ray a workload holds, in the order tables list them.
+    pub const KINDS: [RayKind; 4] = [
+        RayKind::Camera,
+        RayKind::Shadow,
+        RayKind::Path,
+        RayKind::Random,
+    ];
+
+    /// The set of one kind (empty for kinds a workload does not hold).
     pub fn get(&self, kind: RayKind) -> &[Segment] {
         match kind {
-            RayKind::Primary => &self.primary,
+            RayKind::Camera => &self.primary,
             RayKind::Shadow => &self.shadow,
-            RayKind::Diffuse => &self.diffuse,
+            RayKind::Path => &self.diffuse,
             RayKind::Random => &self.random,
+            RayKind::Reflection | RayKind::Refraction => &[],
         }
     }
 }
@@ -245,14 +196,6 @@ pub fn trace<A: Accel + Sync>(accel: &A, scene: &Scene, rays: &[Segment], any_hi
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn ray_kinds_parse_back() {
-        for k in RayKind::ALL {
-            assert_eq!(k.name().parse::<RayKind>(), Ok(k));
-        }
-        assert!("camera".parse::<RayKind>().is_err());
-    }
 
     #[test]
     fn cosine_directions_are_unit_and_above_the_surface() {

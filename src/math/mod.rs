@@ -3,6 +3,16 @@
 //! two can be compared on equal terms; the few places that need more
 //! precision (the watertight triangle fallback) widen locally.
 
+pub mod aabb;
+pub mod real;
+pub mod rng;
+pub mod sampling;
+
+pub use aabb::{slab4, Aabb, SLAB_EXIT_SCALE};
+pub use real::{Real, V3};
+pub use rng::SplitMix64;
+pub use sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle};
+
 pub use glam::{Mat3, Vec3};
 
 /// Linear RGB radiance or reflectance.
@@ -101,48 +111,6 @@ pub fn luminance(c: Color) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
-/// Uniform direction on the unit sphere from two uniform numbers in [0, 1)
-/// (Archimedes: z is uniform in [−1, 1], the azimuth uniform in [0, 2π)).
-#[inline]
-pub fn uniform_sphere(u: glam::Vec2) -> Vec3 {
-    let z = 2.0 * u.x - 1.0;
-    let phi = std::f32::consts::TAU * u.y;
-    let s = (1.0 - z * z).max(0.0).sqrt();
-    Vec3::new(s * phi.cos(), s * phi.sin(), z)
-}
-
-// ANCHOR: cosine_hemisphere
-/// Cosine-weighted direction about +z (Malley's method: a uniform point on
-/// the unit disc, concentric map of Shirley & Chiu 1997, lifted to the
-/// hemisphere); density cos θ / π per steradian.
-#[inline]
-pub fn cosine_hemisphere(u: glam::Vec2) -> Vec3 {
-    let (a, b) = (2.0 * u.x - 1.0, 2.0 * u.y - 1.0);
-    let (r, phi) = if a == 0.0 && b == 0.0 {
-        (0.0, 0.0)
-    } else if a.abs() > b.abs() {
-        (a, std::f32::consts::FRAC_PI_4 * (b / a))
-    } else {
-        (
-            b,
-            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b),
-        )
-    };
-    let (x, y) = (r * phi.cos(), r * phi.sin());
-    Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt())
-}
-// ANCHOR_END: cosine_hemisphere
-
-/// Barycentrics (b₁, b₂) of a uniformly distributed point in a triangle
-/// (p = p₀ + b₁(p₁ − p₀) + b₂(p₂ − p₀)) by the square-root warp of
-/// pbrt-v3 §13.6.5: one vertex gets weight 1 − √u₁, another u₂·√u₁, which is
-/// uniform in area whichever vertices they are.
-#[inline]
-pub fn uniform_triangle(u: glam::Vec2) -> (f32, f32) {
-    let s = u.x.sqrt();
-    (u.y * s, 1.0 - s)
-}
-
 /// Largest absolute coordinate: the scale used for self-intersection offsets.
 #[inline]
 pub fn max_abs(p: Vec3) -> f32 {
@@ -175,55 +143,5 @@ mod tests {
             assert!((t.length() - 1.0).abs() < 1e-6 && (b.length() - 1.0).abs() < 1e-6);
             assert!((t.cross(b) - n).length() < 1e-5);
         }
-    }
-}
-
-/// SplitMix64 (Steele, Lea & Flood, "Fast splittable pseudorandom number
-/// generators", OOPSLA 2014): a tiny seeded generator for test and
-/// validation rays, and (through [`SplitMix64::mix`]) a well-mixed hash.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct SplitMix64(pub u64);
-
-impl SplitMix64 {
-    /// The generator's output function applied to `z + γ`: a bijective,
-    /// well-mixed hash of `z`.
-    pub fn mix(z: u64) -> u64 {
-        let mut z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        let out = Self::mix(self.0);
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        out
-    }
-
-    /// Uniform in [0, 1), 24 random bits.
-    pub fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
-    }
-
-    /// Uniform in [lo, hi).
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next_f32()
-    }
-
-    /// Uniform integer in [0, n) (n > 0; the modulo bias is below 2⁻³² for
-    /// any n that fits in memory).
-    pub fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-
-    /// Uniform direction on the unit sphere (see [`uniform_sphere`]).
-    pub fn unit_vector(&mut self) -> Vec3 {
-        let u = glam::Vec2::new(self.next_f32(), self.next_f32());
-        uniform_sphere(u)
-    }
-
-    /// Uniform point in a box.
-    pub fn in_box(&mut self, b: &crate::shape::Bounds) -> Vec3 {
-        b.min + b.extent() * Vec3::new(self.next_f32(), self.next_f32(), self.next_f32())
     }
 }

@@ -1,0 +1,177 @@
+//! Direct light at a surface point: which lights an estimator sees, the
+//! shadow ray behind each, and the light they deliver. Written once for
+//! the Whitted integrator, the path tracer (`direct`, `path:K`) and the
+//! flood-fill cache's wall faces; the formulas themselves are the
+//! [`crate::shading`] kernels.
+//!
+//! **The rule for `whitted_only` point lights.** A point light flagged
+//! `whitted_only` stands in for an emissive surface that the Whitted
+//! integrator cannot see as a light (the Cornell box's ceiling lamp). Only
+//! [`LightModel::Whitted`] sees it; every physically based estimator
+//! ([`LightModel::Physical`]: the path tracer, direct lighting, and the
+//! flood-fill cache however it is built) skips it, since it samples the
+//! emitter itself and counting both would double the light.
+//!
+//! Sits above [`crate::scene`] (it traces shadow rays through the scene)
+//! and below the integrators and [`crate::gi`].
+
+use crate::light::{AreaSample, PointLight};
+use crate::math::{Color, SplitMix64, Vec3, V3};
+use crate::scene::Scene;
+use crate::shading;
+use crate::shape::Hit;
+use crate::stats::{NoStats, RayKind, Stats};
+use glam::Vec2;
+
+/// Which point lights an estimator sees (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightModel {
+    /// Every point light, `whitted_only` stand-ins included.
+    Whitted,
+    /// Every point light but the `whitted_only` stand-ins.
+    Physical,
+}
+
+impl LightModel {
+    /// Whether this model sees `light`.
+    #[inline]
+    pub fn sees(self, light: &PointLight) -> bool {
+        self == LightModel::Whitted || !light.whitted_only
+    }
+}
+
+/// Whether `target` is visible from `hit`: one shadow ray (counted as
+/// [`RayKind::Shadow`]) built by [`Hit::shadow_segment`]. `dir` is the unit
+/// direction towards `target`.
+#[inline]
+pub fn visible<S: Stats>(scene: &Scene, hit: &Hit, dir: Vec3, target: Vec3, stats: &mut S) -> bool {
+    let (shadow, t_max) = hit.shadow_segment(dir, target);
+    stats.ray(RayKind::Shadow);
+    !scene.occluded(&shadow, t_max, stats)
+}
+
+/// One point light as seen from a hit.
+#[derive(Clone, Copy, Debug)]
+pub struct Incidence {
+    /// Unit direction towards the light.
+    pub dir: Vec3,
+    /// cos θ = n·l with the shading normal (> 0).
+    pub cos_theta: f32,
+    /// The light arriving at the point (falloff applied).
+    pub arriving: Color,
+}
+
+/// The light `light` sends to `hit`, if it reaches it: the light must lie
+/// in front of both the shading and the geometric normal (the geometric
+/// test keeps shadow rays from starting inside the object) and be visible.
+#[inline]
+pub fn point_light_incidence<S: Stats>(
+    scene: &Scene,
+    hit: &Hit,
+    light: &PointLight,
+    stats: &mut S,
+) -> Option<Incidence> {
+    let to_light = light.position - hit.point;
+    let dist = to_light.length();
+    let l = to_light / dist;
+    let cos_theta = hit.shading_normal.dot(l);
+    if cos_theta <= 0.0 || hit.geometric_normal.dot(l) <= 0.0 {
+        return None;
+    }
+    if !visible(scene, hit, l, light.position, stats) {
+        return None;
+    }
+    Some(Incidence {
+        dir: l,
+        cos_theta,
+        arriving: light.arriving(dist),
+    })
+}
+
+/// Σ over the point lights `model` sees of arriving light × cos θ behind a
+/// shadow ray: the light a Lambertian surface reflects, over its albedo
+/// ([`shading::lambert_point_light`]).
+#[inline]
+pub fn lambert_point_lights<S: Stats>(
+    scene: &Scene,
+    hit: &Hit,
+    model: LightModel,
+    stats: &mut S,
+) -> Color {
+    let mut sum = Color::ZERO;
+    for light in scene.lights.iter().filter(|l| model.sees(l)) {
+        if let Some(i) = point_light_incidence(scene, hit, light, stats) {
+            sum += Color::from(shading::lambert_point_light(
+                V3::from(i.arriving),
+                i.cos_theta,
+            ));
+        }
+    }
+    sum
+}
+
+/// One area-light sample's estimate of the light a Lambertian surface at
+/// `hit` reflects, over its albedo: L_e·(cos θ/π)·w/p_ω behind a shadow
+/// ray, with the power-heuristic MIS weight against cosine sampling when
+/// `mis` (else weight 1: light sampling alone).
+#[inline]
+pub fn lambert_area_sample<S: Stats>(
+    scene: &Scene,
+    hit: &Hit,
+    s: &AreaSample,
+    mis: bool,
+    stats: &mut S,
+) -> Color {
+    let n = hit.shading_normal;
+    let to = s.point - hit.point;
+    let d2 = to.length_squared();
+    let wi = to / d2.sqrt();
+    let cos_x = n.dot(wi);
+    let cos_l = s.normal.dot(wi).abs();
+    if cos_x <= 0.0 || hit.geometric_normal.dot(wi) <= 0.0 || cos_l <= 0.0 {
+        return Color::ZERO;
+    }
+    let pdf_light = shading::area_to_solid_angle(s.pdf_area, d2, cos_l);
+    if !(pdf_light > 0.0 && pdf_light.is_finite() && visible(scene, hit, wi, s.point, stats)) {
+        return Color::ZERO;
+    }
+    let w = if mis {
+        shading::power_heuristic(pdf_light, shading::cosine_pdf(cos_x))
+    } else {
+        1.0
+    };
+    Color::from(shading::lambert_light_sample(
+        V3::from(s.emission),
+        cos_x,
+        w,
+        pdf_light,
+    ))
+}
+
+/// The direct light a surface at `p` with unit normal `n` receives, over
+/// its albedo (a surface of albedo ρ re-emits ρ × it): the point lights of
+/// [`LightModel::Physical`] plus the mean of `area_samples` light-only
+/// area-light samples. This is how the flood-fill cache lights its wall
+/// faces, whoever builds it. The samples' random numbers are keyed by the
+/// point, so the result does not depend on the thread count.
+pub fn surface_direct(scene: &Scene, p: Vec3, n: Vec3, area_samples: u32) -> Color {
+    let hit = Hit::at_surface(p, n);
+    let mut stats = NoStats;
+    let mut sum = lambert_point_lights(scene, &hit, LightModel::Physical, &mut stats);
+    if area_samples > 0 && scene.area_lights.total_weight() > 0.0 {
+        let key = p
+            .to_array()
+            .iter()
+            .fold(0u64, |h, c| SplitMix64::mix(h ^ u64::from(c.to_bits())));
+        let mut rng = SplitMix64(key);
+        let mut area = Color::ZERO;
+        for _ in 0..area_samples {
+            let (sel, u, v) = (rng.next_f32(), rng.next_f32(), rng.next_f32());
+            if let Some(s) = scene.area_lights.sample(sel, Vec2::new(u, v)) {
+                area += lambert_area_sample(scene, &hit, &s, false, &mut stats);
+            }
+        }
+        sum += area / area_samples as f32;
+    }
+    sum
+}
