@@ -45,7 +45,7 @@ demo: build
 	@echo "cost heatmaps: $(OUT)/stats-camel/; Embree validation of the camel: $(OUT)/validate-camel/"
 	@echo "experiments (data.csv, meta.json, figures) in analysis/out/:"
 	@echo "  s1-ogss-cost (S1's tables, full), s3-bvh-ladder and bvh-volumes (S3, quick),"
-	@echo "  embree-oracle (full), embree-speed and aa-images (quick); full runs: see README"
+	@echo "  embree-oracle (full), embree-speed and aa-images (quick); full runs: see book/src/reproducing.md"
 
 ## test: every test, including the real-mesh readers, the Embree
 ## cross-checks and the CLI; then the book is built (figures from the quick
