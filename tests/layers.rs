@@ -68,13 +68,18 @@ fn collect_rs(dir: &Path, out: &mut Vec<PathBuf>) {
 /// shape::{Hit, Shape}}`, possibly spread over several lines: `group`
 /// carries the open group's depth from one line to the next).
 fn named_modules(code: &str, group: &mut Option<usize>, out: &mut Vec<String>) {
-    let bytes = code.as_bytes();
+    let chars: Vec<char> = code.chars().collect();
+    let is_ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    let ident_at = |i: usize| -> (String, usize) {
+        let end = (i..chars.len()).find(|&k| !is_ident(chars[k])).unwrap_or(chars.len());
+        (chars[i..end].iter().collect(), end)
+    };
     let mut i = 0;
-    while i < bytes.len() {
+    while i < chars.len() {
         if let Some(depth) = group.as_mut() {
             // Inside `crate::{ … }`: an identifier at depth 1 that starts an
             // item (after `{` or `,`) is a module.
-            let c = bytes[i] as char;
+            let c = chars[i];
             match c {
                 '{' => *depth += 1,
                 '}' => {
@@ -84,12 +89,10 @@ fn named_modules(code: &str, group: &mut Option<usize>, out: &mut Vec<String>) {
                     }
                 }
                 _ if *depth == 1 && (c.is_ascii_alphabetic() || c == '_') => {
-                    let prev = code[..i].trim_end().chars().last();
+                    let prev = chars[..i].iter().rev().find(|c| !c.is_whitespace());
                     if matches!(prev, Some('{') | Some(',') | None) {
-                        let end = code[i..]
-                            .find(|ch: char| !(ch.is_ascii_alphanumeric() || ch == '_'))
-                            .map_or(code.len(), |k| i + k);
-                        out.push(code[i..end].to_string());
+                        let (name, end) = ident_at(i);
+                        out.push(name);
                         i = end;
                         continue;
                     }
@@ -99,18 +102,16 @@ fn named_modules(code: &str, group: &mut Option<usize>, out: &mut Vec<String>) {
             i += 1;
             continue;
         }
-        if code[i..].starts_with("crate::") {
-            let rest = &code[i + 7..];
-            if rest.starts_with('{') {
+        let rest: String = chars[i..chars.len().min(i + 7)].iter().collect();
+        if rest == "crate::" && (i == 0 || !is_ident(chars[i - 1])) {
+            if chars.get(i + 7) == Some(&'{') {
                 *group = Some(1);
                 i += 8;
                 continue;
             }
-            let end = rest
-                .find(|ch: char| !(ch.is_ascii_alphanumeric() || ch == '_'))
-                .unwrap_or(rest.len());
-            out.push(rest[..end].to_string());
-            i += 7 + end;
+            let (name, end) = ident_at(i + 7);
+            out.push(name);
+            i = end;
             continue;
         }
         i += 1;
