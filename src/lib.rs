@@ -8,6 +8,9 @@
 //! [`integrator`] computes their colour using the [`accel`]erator's
 //! intersection queries, and the [`film`] accumulates the result, which
 //! [`io::image`] writes out. Every hot path reports into a [`stats`] sink.
+//! [`report`], the top layer, turns all this into what each `raylab`
+//! command prints and writes; `src/main.rs` only parses arguments and
+//! dispatches to it.
 //! `validate` (with the `embree` feature) checks the intersection code
 //! against Embree 4.
 
@@ -23,12 +26,12 @@ pub mod light;
 pub mod lighting;
 pub mod material;
 pub mod math;
+pub mod report;
 pub mod sampler;
 pub mod scene;
 pub mod shading;
 pub mod shape;
 pub mod stats;
-pub mod stats_report;
 #[cfg(feature = "embree")]
 pub mod validate;
 pub mod workload;

@@ -1,22 +1,19 @@
-//! The `raylab` command line: parses arguments and calls the library.
+//! The `raylab` command line: parses arguments and dispatches. Each
+//! command's work and output live in the library's top layer,
+//! [`raylab::report`]: this file only turns arguments into that module's
+//! options, runs the report, and prints it.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Parser, Subcommand};
 use raylab::accel::AccelKind;
-use raylab::analysis::plot::Heatmap;
-use raylab::analysis::{compare, diff_files, spectrum};
 use raylab::experiment;
 use raylab::film::Filter;
-use raylab::integrator::{IntegratorKind, Prepared};
-use raylab::io::image::{read_image, write_image, ImageFormat};
-use raylab::io::scene_file::{load_scene, Overrides};
+use raylab::integrator::IntegratorKind;
+use raylab::io::scene_file::Overrides;
+use raylab::report::{self, print_stdout};
 use raylab::sampler::Sampler;
-use raylab::stats::RayCounts;
-use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Instant;
 
 /// raylab: render, count, measure and plot what ray tracing costs.
 #[derive(Parser, Debug)]
@@ -350,7 +347,7 @@ fn main() -> ExitCode {
             out,
             threads,
         } => {
-            let opts = raylab::stats_report::StatsOptions {
+            let opts = report::StatsOptions {
                 scene,
                 accels: accel,
                 width,
@@ -358,7 +355,7 @@ fn main() -> ExitCode {
                 out,
                 threads,
             };
-            raylab::stats_report::run(&opts, &mut std::io::stdout().lock()).map(|_| ())
+            report::stats::run(&opts, &mut std::io::stdout().lock()).map(|_| ())
         }
         #[cfg(feature = "embree")]
         Command::Validate(args) => cmd_validate(args),
@@ -374,199 +371,55 @@ fn main() -> ExitCode {
 }
 
 fn cmd_render(args: RenderArgs) -> Result<()> {
-    if ImageFormat::from_path(&args.output).is_none() {
-        anyhow::bail!(
-            "{}: unsupported output extension (expected .png or .exr)",
-            args.output.display()
-        );
-    }
-    if args.threads == Some(0) {
-        anyhow::bail!("--threads must be at least 1");
-    }
-    let overrides = Overrides {
-        width: args.width,
-        height: args.height,
-        sampler: args.sampler,
-        filter: args.filter,
-        accel: args.accel,
-        max_depth: args.max_depth,
-        seed: args.seed,
-    };
-    let t0 = Instant::now();
-    let scene = load_scene(&args.scene, &overrides)?;
-    let load_s = t0.elapsed().as_secs_f64();
     let integrator = match args.rr_depth {
         Some(RrDepth(rr)) => args.integrator.with_rr_start(rr),
         None => args.integrator,
     };
-    // Read the reference before rendering, so a bad one fails fast.
-    let reference = args
-        .reference
-        .as_deref()
-        .map(|p| read_image(p).map(|img| (p, img)))
-        .transpose()?;
-    // Flood fill's cache is built and warmed up here, timed apart from the
-    // frame (one frame = its propagation steps and the render).
-    let mut prepared = integrator
-        .prepare(&scene)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
-    let t1 = Instant::now();
-    let (film, RayCounts(counts)) = prepared
-        .frame::<RayCounts>(&scene, args.threads)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
-    let render_s = t1.elapsed().as_secs_f64();
-    let image = film.image();
-    let errors = match &reference {
-        None => None,
-        Some((path, img)) => Some(
-            compare(&image, img)
-                .map_err(|e| anyhow::anyhow!("cannot compare with {}: {e}", path.display()))?,
-        ),
+    let opts = report::RenderOptions {
+        scene: args.scene,
+        output: args.output,
+        overrides: Overrides {
+            width: args.width,
+            height: args.height,
+            sampler: args.sampler,
+            filter: args.filter,
+            accel: args.accel,
+            max_depth: args.max_depth,
+            seed: args.seed,
+        },
+        integrator,
+        reference: args.reference,
+        spp_map: args.spp_map,
+        threads: args.threads,
     };
-    match ImageFormat::from_path(&args.output) {
-        Some(ImageFormat::Exr) => raylab::io::image::write_film_exr(&args.output, &film),
-        _ => write_image(&args.output, &image),
+    let report = report::RenderReport::run(&opts)?;
+    if args.quiet {
+        return Ok(());
     }
-    .with_context(|| format!("writing {}", args.output.display()))?;
-    if let Some(map) = &args.spp_map {
-        let stem = map.with_extension("");
-        let mut heat = Heatmap::new(
-            format!("{}: samples per pixel", scene.settings.sampler.name()),
-            film.count_array(),
-        );
-        heat.value_label = "camera rays traced".into();
-        heat.save(&stem)
-            .with_context(|| format!("writing {}.png", stem.display()))?;
-    }
-    if !args.quiet {
-        let cam = &scene.camera;
-        let threads = args.threads.unwrap_or_else(rayon::current_num_threads);
-        println!("scene      {}", args.scene.display());
-        println!(
-            "image      {}×{}  {} spp ({})  accel {}  {} threads  integrator {}",
-            cam.width,
-            cam.height,
-            scene.settings.sampler.spp(),
-            scene.settings.sampler.name(),
-            scene.accel.kind(),
-            threads,
-            integrator
-        );
-        if scene.settings.sampler.is_adaptive() {
-            let (mean, max) = film.samples_per_pixel();
-            println!(
-                "adaptive   {mean:.3} rays per pixel on average (cost T = {mean:.3} × one centre \
-                 sample), {max} at most"
-            );
-        } else if scene.settings.filter != Filter::Box {
-            println!("filter     {}", scene.settings.filter.name());
-        }
-        println!(
-            "geometry   {} primitives ({} triangles), {} point lights, {} emitters sampled",
-            scene.prims.len(),
-            scene.triangle_count(),
-            scene.lights.len(),
-            scene.area_lights.emitters.len()
-        );
-        println!(
-            "rays       {} total: {} camera, {} shadow, {} reflection, {} refraction, {} path",
-            counts.rays(),
-            counts.camera_rays,
-            counts.shadow_rays,
-            counts.reflection_rays,
-            counts.refraction_rays,
-            counts.path_rays
-        );
-        if let Prepared::FloodFill(ff) = &prepared {
-            let [nx, ny, nz] = ff.cache.dims();
-            println!(
-                "cache      {nx}×{ny}×{nz} voxels of {:.4}, built in {:.3} s, {} steps ({:.3} s \
-                 warm-up, then {} per frame)",
-                ff.cache.voxel_size(),
-                ff.build_s,
-                ff.cache.steps(),
-                ff.warm_s,
-                ff.cache.config().steps_per_frame
-            );
-        }
-        println!(
-            "time       load {:.3} s, render {:.3} s, {:.2} Mrays/s",
-            load_s,
-            render_s,
-            counts.rays() as f64 / render_s / 1e6
-        );
-        // The adaptive sampler's leaf values are not independent samples:
-        // it keeps no variance.
-        if !scene.settings.sampler.is_adaptive() {
-            println!(
-                "variance   {:.6e} per sample, {:.6e} of the pixel mean (mean over pixels and channels)",
-                film.mean_sample_variance(),
-                film.mean_variance_of_mean()
-            );
-        }
-        if let (Some((path, _)), Some(m)) = (&reference, &errors) {
-            println!(
-                "error      MSE {:.6e}, relMSE {:.6e}, FLIP {:.6} against {}",
-                m.mse,
-                m.rel_mse,
-                m.flip.mean,
-                path.display()
-            );
-        }
-        println!("wrote      {}", args.output.display());
-    }
-    Ok(())
+    print_stdout(&report.to_string())
 }
 
 fn cmd_diff(args: DiffArgs) -> Result<()> {
-    let metrics = diff_files(&args.test, &args.reference, args.out.as_deref())?;
-    let mut text = String::new();
+    let report = report::DiffReport::run(&args.test, &args.reference, args.out.as_deref())?;
     if args.json {
-        let mut json = serde_json::to_value(metrics)?;
-        // JSON has no infinity (serde_json would write null): identical
-        // images get the string "inf", as Python's float("inf") reads it.
-        if metrics.psnr.is_infinite() {
-            json["psnr"] = serde_json::Value::from("inf");
-        }
-        json["test"] = args.test.display().to_string().into();
-        json["reference"] = args.reference.display().to_string().into();
-        if let Some(out) = &args.out {
-            json["error_map"] = out.display().to_string().into();
-        }
-        writeln!(text, "{}", serde_json::to_string_pretty(&json)?)?;
+        print_stdout(&report.json()?)
     } else {
-        writeln!(text, "test       {}", args.test.display())?;
-        writeln!(text, "reference  {}", args.reference.display())?;
-        write!(text, "{metrics}")?;
-        if let Some(out) = &args.out {
-            writeln!(text, "wrote      {}", out.display())?;
-        }
+        print_stdout(&report.to_string())
     }
-    print_out(&text)
 }
 
 fn cmd_spectrum(args: SpectrumArgs) -> Result<()> {
-    spectrum::check_sets_and_freq(args.sets, args.freq).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let spectra: Vec<_> = args
-        .sampler
-        .iter()
-        .map(|s| spectrum::PatternSpectrum::compute(s.name(), *s, args.sets, args.freq, args.seed))
-        .collect();
-    let written = spectrum::write_spectra(&args.out, &spectra)?;
-    let mut text = spectrum::summary_table(&spectra);
-    writeln!(
-        text,
-        "wrote {} in {}",
-        written.join(", "),
-        args.out.display()
-    )?;
-    print_out(&text)
+    let opts = report::SpectrumOptions {
+        samplers: args.sampler,
+        sets: args.sets,
+        freq: args.freq,
+        seed: args.seed,
+        out: args.out,
+    };
+    print_stdout(&report::SpectrumReport::run(&opts)?.to_string())
 }
 
 fn cmd_experiment(args: ExperimentArgs) -> Result<()> {
-    if args.threads == Some(0) {
-        anyhow::bail!("--threads must be at least 1");
-    }
     let opts = experiment::Options {
         quick: args.quick,
         resume: args.resume,
@@ -574,89 +427,34 @@ fn cmd_experiment(args: ExperimentArgs) -> Result<()> {
         threads: args.threads,
         progress: true,
     };
-    let report = experiment::run_experiment(&args.manifest, &opts)?;
-    let dir = report.out_dir.display();
-    let mut text = String::new();
-    writeln!(
-        text,
-        "experiment {}: {} runs ({} done now, {} kept from data.csv), {} threads, {:.1} s",
-        report.name,
-        report.runs_total,
-        report.runs_done,
-        report.runs_skipped,
-        report.threads,
-        report.wall_time_s
-    )?;
-    writeln!(text, "wrote      {dir}/{{data.csv, meta.json}}")?;
-    for f in &report.figures {
-        writeln!(text, "figure     {dir}/{f}.{{png,svg}}")?;
-    }
-    for s in &report.summary {
-        writeln!(text, "summary    {}: mean of {}", s.figure, s.label)?;
-        for m in &s.series {
-            writeln!(
-                text,
-                "             {:.2} over {:>2} points  {}",
-                m.mean, m.count, m.label
-            )?;
-        }
-    }
-    print_out(&text)
+    print_stdout(&report::ExperimentReport::run(&args.manifest, &opts)?.to_string())
 }
 
 #[cfg(feature = "embree")]
 fn cmd_validate(args: ValidateArgs) -> Result<()> {
-    use raylab::validate::{validate, Input, Options, Tolerances};
-    let input = match (&args.mesh, &args.scene) {
-        (Some(mesh), _) => Input::from_mesh(mesh)?,
-        (None, Some(scene)) => Input::from_scene(scene)?,
-        (None, None) => anyhow::bail!("give --mesh FILE or --scene FILE"),
+    use raylab::validate::{Options, Tolerances};
+    let opts = report::ValidateOptions {
+        mesh: args.mesh,
+        scene: args.scene,
+        options: Options {
+            rays: args.rays,
+            seed: args.seed,
+            accels: args.accel,
+            embree: args.embree,
+            tolerances: Tolerances {
+                t_rel: args.t_rel,
+                grazing_deg: args.grazing_deg,
+                normal_angle: args.normal_angle,
+                max_unexplained: args.max_unexplained,
+                max_borderline: args.max_borderline,
+            },
+            worst: args.worst,
+            any_hit: true,
+        },
+        csv: args.csv,
+        out: args.out,
     };
-    let tolerances = Tolerances {
-        t_rel: args.t_rel,
-        grazing_deg: args.grazing_deg,
-        normal_angle: args.normal_angle,
-        max_unexplained: args.max_unexplained,
-        max_borderline: args.max_borderline,
-    };
-    let opts = Options {
-        rays: args.rays,
-        seed: args.seed,
-        accels: args.accel,
-        embree: args.embree,
-        tolerances,
-        worst: args.worst,
-        any_hit: true,
-    };
-    let report = validate(&input, &opts)?;
-    let mut text = report.table();
-    if !report.worst.is_empty() {
-        writeln!(text, "worst cases:")?;
-        text.push_str(&report.worst_text());
-    }
-    if let Some(csv) = &args.csv {
-        report.write_csv(csv)?;
-        writeln!(text, "wrote      {}", csv.display())?;
-    }
-    if let Some(dir) = &args.out {
-        for stem in report.write_figures(dir, "validate-")? {
-            writeln!(text, "figure     {}/{stem}.{{png,svg}}", dir.display())?;
-        }
-    }
-    print_out(&text)?;
-    let breaches = report.breaches(&tolerances);
-    if !breaches.is_empty() {
-        anyhow::bail!("tolerances exceeded:\n  {}", breaches.join("\n  "));
-    }
-    Ok(())
-}
-
-/// Write to stdout; a reader that went away (`raylab diff … | head`) is
-/// not an error.
-fn print_out(text: &str) -> Result<()> {
-    let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
-        _ => Ok(()),
-    }
+    let report = report::ValidateReport::run(&opts)?;
+    print_stdout(&report.to_string())?;
+    report.check()
 }

@@ -22,8 +22,8 @@ const LAYERS: &[&[&str]] = &[
     &["io"],
     &["analysis"],
     &["validate"],
-    &["report"],
     &["experiment"],
+    &["report"],
 ];
 
 fn layer_of() -> BTreeMap<&'static str, usize> {

@@ -1,7 +1,7 @@
 //! `raylab stats`: the command runs end to end on small images and writes
 //! its heatmaps, and the percentile code gives the textbook answers.
 
-use raylab::stats_report::{percentile, Distribution};
+use raylab::report::stats::{percentile, Distribution};
 use std::process::Command;
 
 /// The CLI on the S1 spheres (few primitives, so brute force is among the

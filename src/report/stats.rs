@@ -1,6 +1,9 @@
 //! The `raylab stats` report: what tracing a scene costs with each
 //! accelerator, printed as one pbrt-style table (named counters, per-ray
-//! ratios, distributions) plus per-pixel cost heatmaps.
+//! ratios, distributions) plus per-pixel cost heatmaps. Part of the
+//! top-layer [`crate::report`]: it loads scenes, builds accelerators,
+//! renders and plots, so it sits above all of those (it used to be
+//! `stats_report`, beside the bottom-layer [`crate::stats`] counters).
 //!
 //! Data flow: a scene file is loaded once ([`load_scene`]); for each
 //! accelerator the scene's acceleration structure is rebuilt (timed), the

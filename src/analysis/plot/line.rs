@@ -1,0 +1,221 @@
+//! Line charts: one or more named series of (x, y) points on linear or log
+//! axes, drawn as lines, markers, both, or dashed reference curves. Part of
+//! [`crate::analysis::plot`]; the frame and legend come from [`super::chart`].
+
+use super::axis::{to_plot, Axis, Scale};
+use super::chart::{
+    build_chart, draw_legend, marker_polygon, place_legend, sample_polyline, LegendGlyph,
+    LegendPosition, SeriesStyle, MARKERS,
+};
+use super::{
+    plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE, LINE_WIDTH, MARKER_RADIUS,
+};
+use anyhow::{anyhow, Context};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+
+/// One named curve of a [`LineChart`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Series {
+    /// Legend text.
+    pub label: String,
+    /// (x, y) points, drawn in the given order; non-finite points (and
+    /// points ≤ 0 on a log axis) are skipped.
+    pub points: Vec<(f64, f64)>,
+    /// Line, markers, both, or dashed.
+    pub style: SeriesStyle,
+}
+
+impl Series {
+    /// A series with the given label, points and style.
+    pub fn new(label: impl Into<String>, points: Vec<(f64, f64)>, style: SeriesStyle) -> Self {
+        Self {
+            label: label.into(),
+            points,
+            style,
+        }
+    }
+}
+
+/// An x–y chart of one or more series, on linear or log axes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LineChart {
+    /// Caption above the plot.
+    pub title: String,
+    /// x axis description (include the unit).
+    pub x_label: String,
+    /// y axis description (include the unit).
+    pub y_label: String,
+    /// x axis scale.
+    pub x_scale: Scale,
+    /// y axis scale.
+    pub y_scale: Scale,
+    /// The curves, coloured and marked in order.
+    pub series: Vec<Series>,
+    /// Legend placement.
+    pub legend: LegendPosition,
+    /// Canvas size in pixels, [`CHART_SIZE`] by default.
+    pub size: (u32, u32),
+}
+
+impl LineChart {
+    /// An empty chart with linear axes; push series into `series`.
+    pub fn new(
+        title: impl Into<String>,
+        x_label: impl Into<String>,
+        y_label: impl Into<String>,
+    ) -> Self {
+        Self {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            x_scale: Scale::Linear,
+            y_scale: Scale::Linear,
+            series: Vec::new(),
+            legend: LegendPosition::Auto,
+            size: CHART_SIZE,
+        }
+    }
+
+    /// Write `stem.png` and `stem.svg`. Fails (writing nothing) when a log
+    /// axis has data but none of it is positive.
+    pub fn save(&self, stem: &Path) -> anyhow::Result<()> {
+        save_figure(self, stem).with_context(|| format!("line chart \"{}\"", self.title))
+    }
+
+    /// The drawable points of each series in plot space, split into runs:
+    /// a point that cannot be drawn (NaN, infinite, ≤ 0 on a log axis) is
+    /// missing data, so the line breaks there instead of bridging the gap.
+    fn plot_runs(&self) -> Vec<Vec<Vec<(f64, f64)>>> {
+        self.series
+            .iter()
+            .map(|s| {
+                let mut runs = vec![Vec::new()];
+                for &(x, y) in &s.points {
+                    match (to_plot(self.x_scale, x), to_plot(self.y_scale, y)) {
+                        (Some(u), Some(v)) => runs.last_mut().map_or((), |r| r.push((u, v))),
+                        _ => runs.push(Vec::new()),
+                    }
+                }
+                runs.retain(|r| !r.is_empty());
+                runs
+            })
+            .collect()
+    }
+
+    fn axes(&self, runs: &[Vec<Vec<(f64, f64)>>]) -> anyhow::Result<(Axis, Axis)> {
+        let all = || runs.iter().flatten().flatten();
+        let xs: Vec<f64> = all().map(|p| p.0).collect();
+        let ys: Vec<f64> = all().map(|p| p.1).collect();
+        let any_finite = self
+            .series
+            .iter()
+            .flat_map(|s| &s.points)
+            .any(|(x, y)| x.is_finite() && y.is_finite());
+        if any_finite && xs.is_empty() {
+            let which: Vec<&str> = [("x", self.x_scale), ("y", self.y_scale)]
+                .iter()
+                .filter(|(_, s)| *s == Scale::Log10)
+                .map(|(n, _)| *n)
+                .collect();
+            return Err(anyhow!(
+                "no point has a positive value on the log {} axis; \
+                 use a linear scale for data that is all zero or negative",
+                which.join(" and ")
+            ));
+        }
+        Ok((
+            Axis::fit(self.x_scale, &xs, 0.03, false),
+            Axis::fit(self.y_scale, &ys, 0.06, false),
+        ))
+    }
+}
+
+impl Figure for LineChart {
+    fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
+        let runs = self.plot_runs();
+        let (x, y) = self.axes(&runs)?;
+        let shown: Vec<usize> = (0..self.series.len())
+            .filter(|&i| !runs[i].is_empty())
+            .collect();
+        let labels: Vec<&str> = shown
+            .iter()
+            .map(|&i| self.series[i].label.as_str())
+            .collect();
+        let mut occupied = Vec::new();
+        for &i in &shown {
+            for run in &runs[i] {
+                sample_polyline(&x, &y, run, &mut occupied);
+            }
+        }
+        let (legend, headroom) = place_legend(self.legend, &labels, &occupied, self.size);
+        let y = if headroom > 0.0 {
+            y.with_headroom(headroom)
+        } else {
+            y
+        };
+        let x_fmt = |u: &f64| x.label(*u);
+        let mut chart = build_chart(
+            root,
+            &self.title,
+            &x,
+            &y,
+            &self.x_label,
+            &self.y_label,
+            &x_fmt,
+        )?;
+        for &i in &shown {
+            let s = &self.series[i];
+            let colour = rgb(series_colour(i));
+            let marker = MARKERS[i % MARKERS.len()];
+            let line = colour.stroke_width(LINE_WIDTH);
+            let style = s.style;
+            // An empty series carries the legend entry; the runs follow.
+            chart
+                .draw_series(Vec::<PathElement<(f64, f64)>>::new())
+                .map_err(plot_err)?
+                .label(s.label.clone())
+                .legend(move |at| {
+                    let g = LegendGlyph::new(style, marker, colour);
+                    let [a, b, c] = g.segments;
+                    EmptyElement::at(at)
+                        + PathElement::new(a, g.line)
+                        + PathElement::new(b, g.line)
+                        + PathElement::new(c, g.line)
+                        + Polygon::new(g.marker, g.marker_style)
+                });
+            for run in &runs[i] {
+                match style {
+                    SeriesStyle::Line | SeriesStyle::LinePoints => {
+                        chart
+                            .draw_series(LineSeries::new(run.iter().copied(), line))
+                            .map_err(plot_err)?;
+                    }
+                    SeriesStyle::Dashed => {
+                        chart
+                            .draw_series(DashedLineSeries::new(run.iter().copied(), 14, 8, line))
+                            .map_err(plot_err)?;
+                    }
+                    SeriesStyle::Points => {}
+                }
+                if matches!(style, SeriesStyle::Points | SeriesStyle::LinePoints) {
+                    chart
+                        .draw_series(run.iter().map(|&c| {
+                            EmptyElement::at(c)
+                                + Polygon::new(
+                                    marker_polygon(marker, MARKER_RADIUS),
+                                    colour.filled(),
+                                )
+                        }))
+                        .map_err(plot_err)?;
+                }
+            }
+        }
+        draw_legend(&mut chart, legend)
+    }
+}

@@ -1,0 +1,275 @@
+//! Paper-quality figures: line charts, grouped bar charts, histograms,
+//! heatmaps with a colour bar, and captioned image grids, each saved as both
+//! PNG (for quick looks and the book) and SVG (for papers).
+//!
+//! These are the last step of the data flow: experiments, `raylab stats`
+//! and `raylab diff` hand their numbers or images to one of the figure types
+//! below and call `save(stem)`, which writes `stem.png` and `stem.svg`.
+//! Each figure is a plain struct with public fields; build it, then save it.
+//!
+//! Conventions, so figures from different commands look alike:
+//! - Text is DejaVu Sans, bundled in `data/fonts/` and compiled in, so the
+//!   output never depends on the fonts of the machine (plotters is built
+//!   without system-font lookup). PNG text is 26–40 px on a 1200×800 canvas.
+//! - Series colours are the Okabe–Ito palette (safe for the common forms of
+//!   colour blindness), and each series also gets its own marker shape, so
+//!   a grey-scale print still tells them apart.
+//! - Log axes place major ticks at powers of ten, labelled `10ᵏ` as
+//!   matplotlib does, with light grid lines at 2·10ᵏ … 9·10ᵏ.
+//! - Non-finite values are skipped, as are values ≤ 0 on a log axis; a log
+//!   axis with no positive value at all is an error, never a panic.
+//! - Files are rendered fully in memory and then written atomically, so a
+//!   failure never leaves half a figure behind.
+//!
+//! Layout: this file holds what every figure shares (the bundled font, the
+//! text sizes, the series palette, the scalar colour maps and the writing
+//! of both files); `axis.rs` resolves axes and ticks, `chart.rs` draws the
+//! frame, markers and legend of x–y charts, and each figure kind has its
+//! own file: `line.rs`, `bar.rs`, `histogram.rs`, `heatmap.rs` and
+//! `image_grid.rs`. The figure types are re-exported here, so callers name
+//! them `crate::analysis::plot::LineChart` and so on.
+
+mod axis;
+mod bar;
+mod chart;
+mod heatmap;
+mod histogram;
+mod image_grid;
+mod line;
+
+pub use axis::{format_tick, Scale};
+pub use bar::{BarChart, BarSeries};
+pub use chart::{LegendPosition, SeriesStyle};
+pub use heatmap::Heatmap;
+pub use histogram::{bin_counts, Histogram};
+pub use image_grid::ImageGrid;
+pub use line::{LineChart, Series};
+
+use crate::io::write_atomically;
+use anyhow::{anyhow, ensure, Context};
+use plotters::coord::Shift;
+use plotters::element::BitMapElement;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// DejaVu Sans (Bitstream Vera licence, see `data/fonts/LICENSE`).
+static FONT_BYTES: &[u8] = include_bytes!("../../../data/fonts/DejaVuSans.ttf");
+
+/// The family name the bundled font is registered under.
+const FONT_FAMILY: &str = "sans-serif";
+
+/// The Okabe–Ito colour-blind-safe palette (Okabe & Ito, "Color Universal
+/// Design", 2002), reordered so the first colours are the most distinct on
+/// white; yellow comes last because it is faint on a white background.
+pub const OKABE_ITO: [[u8; 3]; 8] = [
+    [0, 114, 178],   // blue
+    [213, 94, 0],    // vermillion
+    [0, 158, 115],   // bluish green
+    [204, 121, 167], // reddish purple
+    [230, 159, 0],   // orange
+    [86, 180, 233],  // sky blue
+    [0, 0, 0],       // black
+    [240, 228, 66],  // yellow
+];
+
+/// Default canvas size of charts in pixels (PNG) and user units (SVG).
+pub const CHART_SIZE: (u32, u32) = (1200, 800);
+
+// Text sizes in pixels, chosen so labels stay legible when a 1200 px wide
+// figure is shrunk to a single column of a paper (about a third).
+const TITLE_PX: f64 = 40.0;
+const AXIS_DESC_PX: f64 = 32.0;
+const TICK_PX: f64 = 26.0;
+const LEGEND_PX: f64 = 26.0;
+const CAPTION_PX: f64 = 28.0;
+
+const LINE_WIDTH: u32 = 3;
+const MARKER_RADIUS: i32 = 8;
+
+/// Register the bundled font with plotters once per process.
+fn ensure_font() -> anyhow::Result<()> {
+    static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
+    REGISTERED
+        .get_or_init(|| {
+            plotters::style::register_font(FONT_FAMILY, FontStyle::Normal, FONT_BYTES)
+                .map_err(|_| "the bundled DejaVu Sans font could not be parsed".to_string())
+        })
+        .clone()
+        .map_err(|e| anyhow!(e))
+}
+
+/// The bundled font at `px` pixels, in black.
+fn font(px: f64) -> TextStyle<'static> {
+    (FONT_FAMILY, px).into_font().color(&BLACK)
+}
+
+/// plotters' errors are generic over the backend; keep only their message.
+fn plot_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
+    anyhow!("plotting failed: {e}")
+}
+
+/// An sRGB triple as a plotters colour.
+fn rgb(c: [u8; 3]) -> RGBColor {
+    RGBColor(c[0], c[1], c[2])
+}
+
+/// The colour of series number `i` (cycles through [`OKABE_ITO`]).
+pub fn series_colour(i: usize) -> [u8; 3] {
+    OKABE_ITO[i % OKABE_ITO.len()]
+}
+
+// ---------------------------------------------------------------------------
+// Colour maps
+
+/// A perceptually uniform colour map for scalar data.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Palette {
+    /// Viridis (van der Walt and Smith, matplotlib 2.0 default).
+    #[default]
+    Viridis,
+    /// Magma, the map ꟻLIP uses for its error maps.
+    Magma,
+}
+
+/// Viridis at nine equally spaced points, as published by the viridisLite R
+/// package (`viridis(9)`); values in between are interpolated linearly in
+/// sRGB, which stays within a few code values of the full 256-entry map.
+const VIRIDIS_STOPS: [[u8; 3]; 9] = [
+    [0x44, 0x01, 0x54],
+    [0x47, 0x2D, 0x7B],
+    [0x3B, 0x52, 0x8B],
+    [0x2C, 0x72, 0x8E],
+    [0x21, 0x90, 0x8C],
+    [0x27, 0xAD, 0x81],
+    [0x5D, 0xC8, 0x63],
+    [0xAA, 0xDC, 0x32],
+    [0xFD, 0xE7, 0x25],
+];
+
+/// ꟻLIP's own 256-entry magma table (from the `nv-flip` crate).
+fn magma_table() -> &'static [u8] {
+    static TABLE: OnceLock<Vec<u8>> = OnceLock::new();
+    TABLE.get_or_init(|| nv_flip::magma_lut().to_vec())
+}
+
+impl Palette {
+    /// The colour for `t` in [0, 1] (clamped; NaN gives the lowest colour).
+    pub fn colour(self, t: f64) -> [u8; 3] {
+        let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+        match self {
+            Palette::Viridis => {
+                let s = t * (VIRIDIS_STOPS.len() - 1) as f64;
+                let i = (s.floor() as usize).min(VIRIDIS_STOPS.len() - 2);
+                let f = s - i as f64;
+                let (a, b) = (VIRIDIS_STOPS[i], VIRIDIS_STOPS[i + 1]);
+                std::array::from_fn(|c| {
+                    (f64::from(a[c]) + f * (f64::from(b[c]) - f64::from(a[c]))).round() as u8
+                })
+            }
+            Palette::Magma => {
+                let table = magma_table();
+                let n = table.len() / 3;
+                if n == 0 {
+                    return [0, 0, 0];
+                }
+                let i = ((t * (n - 1) as f64).round() as usize).min(n - 1);
+                [table[3 * i], table[3 * i + 1], table[3 * i + 2]]
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Rendering to both files
+
+/// `stem` with `.ext` appended (not replacing a dot already in the name, so
+/// `fig.v2` becomes `fig.v2.png`).
+fn with_suffix(stem: &Path, ext: &str) -> PathBuf {
+    let mut s: OsString = stem.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    PathBuf::from(s)
+}
+
+/// Something drawable on any plotters backend; every figure kind
+/// implements it and [`save_figure`] renders it to both files.
+trait Figure {
+    /// Canvas size in pixels (PNG) and user units (SVG).
+    fn size(&self) -> (u32, u32);
+    /// Draw the whole figure on `root` (already filled white).
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()>;
+}
+
+/// Render `fig` to PNG and SVG in memory, then write `stem.png` and
+/// `stem.svg` atomically.
+fn save_figure<F: Figure>(fig: &F, stem: &Path) -> anyhow::Result<()> {
+    ensure_font()?;
+    let (w, h) = fig.size();
+    ensure!(
+        (100..=20_000).contains(&w) && (100..=20_000).contains(&h),
+        "figure size {w}×{h} is out of range (100 to 20000 pixels a side)"
+    );
+    let mut pixels = vec![255u8; w as usize * h as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        fig.draw(&root)?;
+        root.present().map_err(plot_err)?;
+    }
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        fig.draw(&root)?;
+        root.present().map_err(plot_err)?;
+    }
+    let png_path = with_suffix(stem, "png");
+    let svg_path = with_suffix(stem, "svg");
+    write_atomically(&png_path, |tmp| {
+        let img = image::RgbImage::from_raw(w, h, pixels)
+            .ok_or_else(|| anyhow!("figure buffer size mismatch"))?;
+        img.save_with_format(tmp, image::ImageFormat::Png)
+            .map_err(|e| anyhow!("{}: cannot write PNG: {e}", png_path.display()))
+    })?;
+    write_atomically(&svg_path, |tmp| {
+        std::fs::write(tmp, svg.as_bytes())
+            .with_context(|| format!("{}: cannot write SVG", svg_path.display()))
+    })
+}
+
+/// Blit an RGB buffer at an absolute pixel position of `root` (heatmap
+/// cells and colour bar, image-grid cells).
+fn draw_bitmap<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    at: (i32, i32),
+    size: (u32, u32),
+    rgb: Vec<u8>,
+) -> anyhow::Result<()> {
+    if size.0 == 0 || size.1 == 0 {
+        return Ok(());
+    }
+    let origin = root.get_base_pixel();
+    let element: BitMapElement<(i32, i32)> =
+        BitMapElement::with_owned_buffer((at.0 - origin.0, at.1 - origin.1), size, rgb)
+            .ok_or_else(|| anyhow!("bitmap buffer too small"))?;
+    root.draw(&element).map_err(plot_err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn palettes_hit_their_published_ends() {
+        assert_eq!(Palette::Viridis.colour(0.0), [0x44, 0x01, 0x54]);
+        assert_eq!(Palette::Viridis.colour(1.0), [0xFD, 0xE7, 0x25]);
+        assert_eq!(Palette::Viridis.colour(f64::NAN), [0x44, 0x01, 0x54]);
+        // Magma runs from near black to a light yellow.
+        let (lo, hi) = (Palette::Magma.colour(0.0), Palette::Magma.colour(1.0));
+        assert!(lo.iter().all(|&c| c < 10), "{lo:?}");
+        assert!(hi[0] > 240 && hi[1] > 230, "{hi:?}");
+    }
+}

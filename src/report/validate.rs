@@ -1,0 +1,99 @@
+//! The `raylab validate` report: raylab's intersections checked against
+//! Embree 4 as the oracle, printed as a table per ray set and the worst
+//! cases, with the worst cases written as CSV and the figures on request;
+//! the command fails when a set breaks the tolerances. Part of the
+//! top-layer [`crate::report`] (with the `embree` feature); the checking
+//! itself is [`crate::validate`].
+
+use crate::validate::{validate, Input, Options, Report};
+use anyhow::Result;
+use std::fmt;
+use std::path::PathBuf;
+
+/// What `raylab validate` was asked to do.
+#[derive(Clone, Debug)]
+pub struct ValidateOptions {
+    /// A mesh file to check (takes precedence over `scene`).
+    pub mesh: Option<PathBuf>,
+    /// A scene file to check: its bounded primitives and its camera.
+    pub scene: Option<PathBuf>,
+    /// Ray sets, accelerators, oracle configuration and tolerances.
+    pub options: Options,
+    /// Write the worst cases to this CSV file.
+    pub csv: Option<PathBuf>,
+    /// Folder for the histograms and the bar chart (PNG + SVG).
+    pub out: Option<PathBuf>,
+}
+
+/// The validation, with the files written for it.
+#[derive(Clone, Debug)]
+pub struct ValidateReport {
+    /// The comparison of every ray set.
+    pub report: Report,
+    /// The options it ran with (the tolerances judge it).
+    pub options: Options,
+    /// The CSV of worst cases written.
+    pub csv: Option<PathBuf>,
+    /// The figure folder and the stems written there.
+    pub figures: Option<(PathBuf, Vec<String>)>,
+}
+
+impl ValidateReport {
+    /// Load the mesh or scene, trace every ray set both ways, and write
+    /// the CSV and figures asked for.
+    pub fn run(opts: &ValidateOptions) -> Result<Self> {
+        let input = match (&opts.mesh, &opts.scene) {
+            (Some(mesh), _) => Input::from_mesh(mesh)?,
+            (None, Some(scene)) => Input::from_scene(scene)?,
+            (None, None) => anyhow::bail!("give --mesh FILE or --scene FILE"),
+        };
+        let report = validate(&input, &opts.options)?;
+        if let Some(csv) = &opts.csv {
+            report.write_csv(csv)?;
+        }
+        let figures = match &opts.out {
+            Some(dir) => Some((dir.clone(), report.write_figures(dir, "validate-")?)),
+            None => None,
+        };
+        Ok(Self {
+            report,
+            options: opts.options.clone(),
+            csv: opts.csv.clone(),
+            figures,
+        })
+    }
+
+    /// The tolerances broken, one line each (empty when it passed).
+    pub fn breaches(&self) -> Vec<String> {
+        self.report.breaches(&self.options.tolerances)
+    }
+
+    /// `Ok` when no tolerance is broken, else an error listing them.
+    pub fn check(&self) -> Result<()> {
+        let breaches = self.breaches();
+        if !breaches.is_empty() {
+            anyhow::bail!("tolerances exceeded:\n  {}", breaches.join("\n  "));
+        }
+        Ok(())
+    }
+}
+
+impl fmt::Display for ValidateReport {
+    /// The table per ray set, the worst cases, and the files written.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.report.table())?;
+        if !self.report.worst.is_empty() {
+            writeln!(f, "worst cases:")?;
+            f.write_str(&self.report.worst_text())?;
+        }
+        if let Some(csv) = &self.csv {
+            writeln!(f, "wrote      {}", csv.display())?;
+        }
+        if let Some((dir, stems)) = &self.figures {
+            for stem in stems {
+                writeln!(f, "figure     {}/{stem}.{{png,svg}}", dir.display())?;
+            }
+        }
+        Ok(())
+    }
+}
