@@ -1,12 +1,12 @@
 //! Accelerator throughput on real meshes, printed as a table: Mrays/s of
 //! every BVH variant (`BvhConfig::all()`) and of brute force (smallest mesh
-//! only) for three kinds of ray, build times, the cost of `Counters` over
+//! only) for four kinds of ray, build times, the cost of `Counters` over
 //! `NoStats`, and the 1 → 2 thread speed-up of a full render.
 //!
 //! A small harness rather than criterion, like `benches/render.rs`: every
 //! measurement runs once to warm up, then `REPEATS` times, and the median is
-//! reported (DESIGN.md: "timings are taken in release builds, warm, over
-//! repeats; report medians"). Traversal is timed single-threaded through
+//! reported (ARCHITECTURE.md's rule: timings are taken in release builds,
+//! warm, over repeats, and medians reported). Traversal is timed single-threaded through
 //! `Accel::intersect` / `Accel::occluded` on the scene's mesh alone (the
 //! floor plane is not in the accelerator), so the numbers are the
 //! accelerator's own.

@@ -251,7 +251,7 @@ struct ExperimentArgs {
 
 #[derive(clap::Args, Debug)]
 struct RenderArgs {
-    /// Scene file (TOML; schema in the README).
+    /// Scene file (TOML; schema in book/src/reference/scene-files.md).
     scene: PathBuf,
     /// Output image; the extension chooses the format (.png or .exr).
     #[arg(short, long)]

@@ -1,5 +1,5 @@
 //! `meta.json`: what an experiment ran and where, so its numbers can be
-//! traced and repeated (DESIGN.md, "Determinism and reproducibility").
+//! traced and repeated (ARCHITECTURE.md, "Determinism").
 //!
 //! It records the manifest as run (after `--quick`), the raylab version,
 //! the git revision and whether the work tree had changes, the CPU model,

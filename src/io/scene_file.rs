@@ -1,5 +1,5 @@
 //! Scene files: TOML, parsed with serde. The schema is documented in the
-//! README ("Scene files"). Unknown fields, unknown material names, bad
+//! book's reference (`book/src/reference/scene-files.md`). Unknown fields, unknown material names, bad
 //! values and unreadable meshes are errors that name the file and the line.
 
 use super::procedural::Procedural;
