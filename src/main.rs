@@ -46,26 +46,10 @@ enum Command {
     /// Runs every point of the sweeps of a manifest (analysis/NAME.toml)
     /// with a progress bar, appending one row per run to data.csv, and
     /// writes meta.json and the manifest's figures (PNG + SVG). The manifest format is described in the README ("Running an
-    /// experiment"). Study kinds: render_cost (time and counts of rendering a
-    /// scene file) and accel_cost (an accelerator on a mesh in an automatic
-    /// S3-style scene: build and render time, tests per ray, bounding-volume
-    /// test cost, wasted volume, image equality with brute force; e.g.
-    /// analysis/s3-bvh-ladder.toml, analysis/bvh-volumes.toml), accel_speed
-    /// (raylab's BVH against Embree on identical rays: Mrays/s and their
-    /// ratio, analysis/embree-speed.toml), embree_oracle (validation
-    /// against Embree over meshes and quadrics, analysis/embree-oracle.toml),
-    /// aa_images (image-space aliasing: MSE, FLIP and error spectra of
-    /// every sampler and filter against a converged reference, and the
-    /// adaptive sampler's cost; analysis/aa-images.toml), aa_patterns
-    /// (periodograms of the pixel samplers, as `raylab spectrum`, with
-    /// overlaid radial curves; analysis/aa-patterns.toml), gi_quality (time
-    /// per frame, MSE, relMSE, FLIP, bias and variance of a
-    /// global-illumination integrator against a converged reference,
-    /// analysis/s4-cornell.toml) and floodfill (S4's voxel flood-fill
-    /// irradiance cache: residual per step, grid snapshots, step time, light
-    /// leaking; analysis/floodfill-convergence.toml).
+    /// experiment"); the study kinds are listed below (`--help`).
     /// Build with --release: timings of a debug build mean little, and raylab
     /// warns when it is one.
+    #[command(after_long_help = experiment::study::kinds_help())]
     Experiment(ExperimentArgs),
     /// Count what tracing a scene costs with each accelerator: a pbrt-style
     /// table (rays by kind, nodes visited, volume and primitive tests, per-ray

@@ -110,22 +110,22 @@
 //!
 //! # Study kinds
 //!
-//! `render_cost` ([`study::render_cost`]): parameters `scene` (required),
-//! `sampler`, `accel`, `resolution` ("WxH") or `width`/`height`,
-//! `max_depth`, `seed`. Columns: `width`, `height`, `pixels`, `spp`,
-//! `samples` (pixels × spp), `threads`, `load_s` (scene load and
-//! accelerator build), `render_s_1` … `render_s_N` (each timed repeat),
-//! `render_median_s`, `render_min_s`, `render_max_s`, `render_cpu_median_s`
-//! (median process CPU time of the repeats, all threads: a cross-check
-//! that other programs on a shared machine disturb far less than the wall
-//! clock), `counted_render_s`,
-//! every counter of [`crate::stats::Counters::named`], `rays`,
-//! `rays_per_s` (rays / median time) and `ns_per_sample`.
-//!
-//! `gi_quality` ([`study::gi_quality`]): time per frame, MSE, relMSE,
-//! ꟻLIP, bias² and variance of a global-illumination integrator against a
-//! converged reference (S4's Cornell-box comparison); its parameters and
-//! columns are documented in its module.
+//! The kinds are listed once, in [`study::KINDS`] (the registry that the
+//! manifest reader and `raylab experiment --help` use); each kind's module
+//! documents what a run does. A kind's parameters are the fields of its
+//! parameter struct ([`params`]: typed, each documented, a misspelt one an
+//! error naming the manifest's line), and its columns are the fields of its
+//! row struct ([`row`]), so `data.csv`'s header and cells come from the same
+//! code. For example `render_cost` ([`study::render_cost`]) reads `scene`
+//! (required), `sampler`, `accel`, `resolution` ("WxH") or
+//! `width`/`height`, `max_depth`, `seed` and `filter`
+//! ([`params::render::RenderParams`]) and writes
+//! [`study::render_cost::RenderCostRow`]: `width`, `height`, `pixels`,
+//! `spp`, `samples`, `threads`, `load_s`, `render_s_1` … `render_s_N` (one
+//! per timed repeat), `render_median_s`, `render_min_s`, `render_max_s`,
+//! `render_cpu_median_s`, `counted_render_s`, every counter of
+//! [`crate::stats::Counters::named`], `rays`, `rays_per_s` and
+//! `ns_per_sample`.
 //!
 //! Timing: a warning is printed when the binary was built without
 //! optimisations; each run does `warmup` untimed renders and `repeats`
@@ -138,6 +138,8 @@ pub mod data;
 pub mod figures;
 pub mod manifest;
 pub mod meta;
+pub mod params;
+pub mod row;
 pub mod study;
 pub mod sweep;
 
@@ -330,8 +332,8 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
     for run in &todo {
         let what = run.describe(&plan.varying);
         bar.set_message(what.clone());
-        let row = match pool.install(|| study.run(run, &ctx)) {
-            Ok(row) => row,
+        let record = match pool.install(|| study.run(run, &ctx)) {
+            Ok(record) => record,
             Err(e) => {
                 bar.abandon();
                 meta.wall_time_s = clock.elapsed().as_secs_f64();
@@ -345,22 +347,28 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
                 )));
             }
         };
-        let cells: Vec<String> = plan
+        // A parameter's column holds the parameter (also where the study
+        // writes a column of that name); the others are the study's.
+        let cells = plan
             .columns
             .iter()
             .map(|c| {
                 if c == "sweep" {
-                    run.sweep.clone()
+                    Ok(run.sweep.clone())
                 } else if let Some(v) = run.get(c) {
-                    v.to_string()
+                    Ok(v.to_string())
+                } else if let Some(cell) = record.get(c) {
+                    Ok(cell.to_string())
+                } else if plan.param_columns.contains(c) {
+                    Ok(String::new()) // a parameter this run does not set
                 } else {
-                    row.iter()
-                        .find(|(name, _)| name == c)
-                        .map(|(_, v)| v.clone())
-                        .unwrap_or_default()
+                    Err(anyhow::anyhow!(
+                        "internal error: study `{}` wrote no column `{c}`",
+                        manifest.kind
+                    ))
                 }
             })
-            .collect();
+            .collect::<anyhow::Result<Vec<String>>>()?;
         writer.append(&cells)?;
         meta.runs_done += 1;
         bar.inc(1);

@@ -25,15 +25,14 @@
 //! the runs that share a sweep, scene and sample count
 //! (`aa-error-spectrum-…`).
 
-use super::render_cost::{config, Config, PARAMETERS as RENDER_PARAMETERS};
-use super::{
-    bool_param, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study,
-    StudySettings, Timings,
-};
+use super::{RunContext, Study, Timings};
 use crate::analysis::metrics::{compare, flip_error_map, write_flip_map};
 use crate::analysis::plot::{Heatmap, LineChart, Palette, Scale, Series, SeriesStyle};
 use crate::analysis::spectrum::{power_spectrum, radial_profile};
 use crate::experiment::data::Table;
+use crate::experiment::params::render::{RenderConfig, RenderParams};
+use crate::experiment::params::{or_default, parsed_opt, typed_params, ParamDoc, ParamError};
+use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
 use crate::film::Filter;
 use crate::integrator::{render, Whitted};
@@ -44,9 +43,9 @@ use crate::sampler::Sampler;
 use crate::stats::{NoStats, RayCounts};
 use anyhow::Context;
 use ndarray::Array2;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 /// The `aa_images` study.
 pub struct AaImages;
@@ -54,93 +53,111 @@ pub struct AaImages;
 /// The reference sampler when the manifest names none: 64×64 stratified.
 const DEFAULT_REFERENCE: &str = "jitter:64";
 
-const OWN_PARAMETERS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "reference",
-        doc: "sampler of the converged reference (default jitter:64; box filter)",
-    },
-    ParamDoc {
-        name: "images",
-        doc: "true: also write each run's image and ꟻLIP error map to images/",
-    },
-];
-
-fn parameters() -> &'static [ParamDoc] {
-    static ALL: OnceLock<Vec<ParamDoc>> = OnceLock::new();
-    ALL.get_or_init(|| {
-        RENDER_PARAMETERS
-            .iter()
-            .chain(OWN_PARAMETERS)
-            .copied()
-            .collect()
-    })
+/// The study's own parameters, beside those of [`RenderParams`].
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AaParams {
+    /// Sampler of the converged reference.
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub reference: Option<Sampler>,
+    /// Also write each run's image and error map.
+    #[serde(default)]
+    pub images: bool,
 }
 
-struct AaConfig {
-    render: Config,
+typed_params!(
+    AaParams,
+    [
+        ParamDoc {
+            name: "reference",
+            doc: "sampler of the converged reference (default jitter:64; box filter)",
+        },
+        ParamDoc {
+            name: "images",
+            doc: "true: also write each run's image and ꟻLIP error map to images/",
+        },
+    ]
+);
+
+/// A run's parameters, checked.
+pub struct AaConfig {
+    render: RenderConfig,
     reference: Sampler,
     images: bool,
 }
 
-fn aa_config(run: &RunPoint, base_dir: &Path) -> Result<AaConfig, ParamError> {
-    let render = config(run, base_dir)?;
-    let reference = Sampler::parse(str_param(run, "reference")?.unwrap_or(DEFAULT_REFERENCE))
-        .map_err(|e| ParamError::new("reference", e))?;
-    if reference.is_adaptive() {
-        return Err(ParamError::new(
-            "reference",
-            "the reference needs a fixed sample count, not the adaptive sampler",
-        ));
-    }
-    let images = bool_param(run, "images")?.unwrap_or(false);
-    Ok(AaConfig {
-        render,
-        reference,
-        images,
-    })
+/// One row: a render's error against the reference, and its cost.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct AaImagesRow {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Pixels of the image.
+    pub pixels: u64,
+    /// The sampler's short name (`ogss4`).
+    pub sampler_name: String,
+    /// Its family (`ogss`, `jitter`, …).
+    pub sampler_family: String,
+    /// Its series in cost–quality plots (`adaptive d2`).
+    pub sampler_series: String,
+    /// The scene file's stem.
+    pub scene_name: String,
+    /// The reconstruction filter.
+    pub filter_name: String,
+    /// Nominal samples per pixel.
+    pub spp: u32,
+    /// Camera rays traced per pixel.
+    pub rays_per_pixel: Fixed<6>,
+    /// Most camera rays any pixel got.
+    pub max_rays_per_pixel: u32,
+    /// Median of the timed renders.
+    pub render_median_s: Secs,
+    /// Median process CPU time of the timed renders.
+    pub render_cpu_median_s: Secs,
+    /// Mean squared error against the reference.
+    pub mse: Sci<6>,
+    /// Relative MSE.
+    pub rel_mse: Sci<6>,
+    /// Peak signal-to-noise ratio, dB.
+    pub psnr: Fixed<3>,
+    /// Mean ꟻLIP error.
+    pub flip_mean: Fixed<6>,
+    /// Mean error power below a quarter cycle per pixel.
+    pub error_power_low: Sci<6>,
+    /// Mean error power above it.
+    pub error_power_high: Sci<6>,
+    /// The error's radial spectrum, relative to the output folder.
+    pub error_spectrum_csv: String,
+    /// The reference's sampler.
+    pub reference_sampler: String,
+    /// The reference image.
+    pub reference_file: String,
 }
 
 impl Study for AaImages {
-    fn kind(&self) -> &'static str {
-        "aa_images"
-    }
+    type Params = (RenderParams, AaParams);
+    type Config = AaConfig;
+    type Row = AaImagesRow;
 
-    fn parameters(&self) -> &'static [ParamDoc] {
-        parameters()
-    }
-
-    fn columns(&self, _settings: &StudySettings) -> Vec<String> {
-        [
-            "width",
-            "height",
-            "pixels",
-            "sampler_name",
-            "sampler_family",
-            "sampler_series",
-            "scene_name",
-            "filter_name",
-            "spp",
-            "rays_per_pixel",
-            "max_rays_per_pixel",
-            "render_median_s",
-            "render_cpu_median_s",
-            "mse",
-            "rel_mse",
-            "psnr",
-            "flip_mean",
-            "error_power_low",
-            "error_power_high",
-            "error_spectrum_csv",
-            "reference_sampler",
-            "reference_file",
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect()
-    }
-
-    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), ParamError> {
-        aa_config(run, base_dir).map(|_| ())
+    fn configure(
+        &self,
+        (render, own): (RenderParams, AaParams),
+        base_dir: &Path,
+    ) -> Result<AaConfig, ParamError> {
+        let render = render.config(base_dir)?;
+        let reference = or_default(own.reference, "reference", DEFAULT_REFERENCE)?;
+        if reference.is_adaptive() {
+            return Err(ParamError::new(
+                "reference",
+                "the reference needs a fixed sample count, not the adaptive sampler",
+            ));
+        }
+        Ok(AaConfig {
+            render,
+            reference,
+            images: own.images,
+        })
     }
 
     /// Overlay the error spectra of the runs that share a sweep, a scene
@@ -200,8 +217,12 @@ impl Study for AaImages {
         Ok(written)
     }
 
-    fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Row> {
-        let cfg = aa_config(run, ctx.base_dir).map_err(ParamError::into_error)?;
+    fn run(
+        &self,
+        cfg: AaConfig,
+        _run: &RunPoint,
+        ctx: &RunContext<'_>,
+    ) -> anyhow::Result<AaImagesRow> {
         let scene = load_scene(&cfg.render.scene, &cfg.render.overrides)?;
         let (w, h) = (scene.camera.width, scene.camera.height);
         let reference_path = reference_file(ctx.out_dir, &cfg.render.scene, w, h, &cfg.reference);
@@ -251,39 +272,30 @@ impl Study for AaImages {
             heat.extent = Some([-0.5, 0.5, -0.5, 0.5]);
             heat.save(&dir.join(format!("{stem}-error-spectrum")))?;
         }
-        Ok(vec![
-            ("width".into(), w.to_string()),
-            ("height".into(), h.to_string()),
-            ("pixels".into(), pixels.to_string()),
-            ("sampler_name".into(), settings.sampler.name()),
-            ("sampler_family".into(), settings.sampler.family().into()),
-            ("sampler_series".into(), sampler_series(&settings.sampler)),
-            ("scene_name".into(), file_stem(&cfg.render.scene)),
-            ("filter_name".into(), settings.filter.name().into()),
-            ("spp".into(), settings.sampler.spp().to_string()),
-            (
-                "rays_per_pixel".into(),
-                format!("{:.6}", counts.camera_rays as f64 / pixels as f64),
-            ),
-            ("max_rays_per_pixel".into(), max_rays.to_string()),
-            ("render_median_s".into(), seconds_cell(timings.median())),
-            (
-                "render_cpu_median_s".into(),
-                seconds_cell(timings.cpu_median()),
-            ),
-            ("mse".into(), format!("{:.6e}", m.mse)),
-            ("rel_mse".into(), format!("{:.6e}", m.rel_mse)),
-            ("psnr".into(), format!("{:.3}", m.psnr)),
-            ("flip_mean".into(), format!("{:.6}", m.flip.mean)),
-            ("error_power_low".into(), format!("{low:.6e}")),
-            ("error_power_high".into(), format!("{high:.6e}")),
-            ("error_spectrum_csv".into(), spectrum_csv),
-            ("reference_sampler".into(), cfg.reference.name()),
-            (
-                "reference_file".into(),
-                reference_path.display().to_string(),
-            ),
-        ])
+        Ok(AaImagesRow {
+            width: w,
+            height: h,
+            pixels,
+            sampler_name: settings.sampler.name(),
+            sampler_family: settings.sampler.family().into(),
+            sampler_series: sampler_series(&settings.sampler),
+            scene_name: file_stem(&cfg.render.scene),
+            filter_name: settings.filter.name().into(),
+            spp: settings.sampler.spp(),
+            rays_per_pixel: Fixed(counts.camera_rays as f64 / pixels as f64),
+            max_rays_per_pixel: max_rays,
+            render_median_s: Secs(timings.median()),
+            render_cpu_median_s: Secs(timings.cpu_median()),
+            mse: Sci(m.mse),
+            rel_mse: Sci(m.rel_mse),
+            psnr: Fixed(m.psnr),
+            flip_mean: Fixed(m.flip.mean),
+            error_power_low: Sci(low),
+            error_power_high: Sci(high),
+            error_spectrum_csv: spectrum_csv,
+            reference_sampler: cfg.reference.name(),
+            reference_file: reference_path.display().to_string(),
+        })
     }
 }
 

@@ -19,17 +19,18 @@
 //! `aa-radial-Nspp` and `aa-anisotropy-Nspp` for each sample count N.
 //! Summary columns go through the manifest's ordinary `[[figure]]`s.
 
-use super::{
-    int_param, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study, StudySettings,
-};
+use super::{RunContext, Study};
 use crate::analysis::spectrum::{
     anisotropy_chart, check_sets_and_freq, radial_chart, read_rings_csv, write_rings_csv,
     PatternSpectrum, RadialCurve, MAX_FREQ, MAX_SETS,
 };
 use crate::experiment::data::Table;
+use crate::experiment::params::{parsed, typed_params, InRange, ParamDoc, ParamError};
+use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
 use crate::sampler::Sampler;
 use anyhow::{anyhow, Context};
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
@@ -38,57 +39,58 @@ use std::time::Instant;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct AaPatterns;
 
-const PARAMETERS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "sampler",
-        doc: "the sampling pattern, as `raylab render --sampler` (`ogss:4`, `rgss`, \
-              `jitter:4`, `random:16`, `halton:16`, `sobol:16`, …); required",
-    },
-    ParamDoc {
-        name: "sets",
-        doc: "point sets (pixels) averaged, M (default 1024)",
-    },
-    ParamDoc {
-        name: "freq",
-        doc: "frequency bound F: k in [−F, F]², rings 1 … F−1 (default 32)",
-    },
-    ParamDoc {
-        name: "seed",
-        doc: "seed of the randomised samplers (default 1)",
-    },
-];
+/// The parameters of a run.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AaPatternsParams {
+    /// The sampling pattern.
+    #[serde(deserialize_with = "parsed")]
+    pub sampler: Sampler,
+    /// Point sets (pixels) averaged.
+    #[serde(default)]
+    pub sets: Option<InRange<1, { MAX_SETS as i64 }>>,
+    /// Frequency bound.
+    #[serde(default)]
+    pub freq: Option<InRange<2, { MAX_FREQ as i64 }>>,
+    /// Seed of the randomised samplers.
+    #[serde(default)]
+    pub seed: Option<u64>,
+}
+
+typed_params!(
+    AaPatternsParams,
+    [
+        ParamDoc {
+            name: "sampler",
+            doc: "the sampling pattern, as `raylab render --sampler` (`ogss:4`, `rgss`, \
+                  `jitter:4`, `random:16`, `halton:16`, `sobol:16`, …); required",
+        },
+        ParamDoc {
+            name: "sets",
+            doc: "point sets (pixels) averaged, M (default 1024)",
+        },
+        ParamDoc {
+            name: "freq",
+            doc: "frequency bound F: k in [−F, F]², rings 1 … F−1 (default 32)",
+        },
+        ParamDoc {
+            name: "seed",
+            doc: "seed of the randomised samplers (default 1)",
+        },
+    ]
+);
 
 /// Defaults of the parameters (as `raylab spectrum`).
 const DEFAULT_SETS: usize = 1024;
 const DEFAULT_FREQ: usize = 32;
 const DEFAULT_SEED: u64 = 1;
 
-/// A run's parameters, parsed.
-struct Config {
-    label: String,
+/// A run's parameters, checked.
+pub struct Config {
     sampler: Sampler,
     sets: usize,
     freq: usize,
     seed: u64,
-}
-
-fn config(run: &RunPoint) -> Result<Config, ParamError> {
-    let label = str_param(run, "sampler")?.ok_or_else(|| ParamError {
-        param: None,
-        message: "`sampler` is required (in [fixed] or in the sweep)".into(),
-    })?;
-    let sampler = Sampler::parse(label).map_err(|e| ParamError::new("sampler", e))?;
-    let sets = int_param(run, "sets", 1, MAX_SETS as i64)?.map_or(DEFAULT_SETS, |v| v as usize);
-    let freq = int_param(run, "freq", 2, MAX_FREQ as i64)?.map_or(DEFAULT_FREQ, |v| v as usize);
-    let seed = int_param(run, "seed", 0, i64::MAX)?.map_or(DEFAULT_SEED, |v| v as u64);
-    check_sets_and_freq(sets, freq).map_err(|e| ParamError::new("sets", e))?;
-    Ok(Config {
-        label: label.to_string(),
-        sampler,
-        sets,
-        freq,
-        seed,
-    })
 }
 
 impl Config {
@@ -104,45 +106,66 @@ impl Config {
     }
 }
 
-/// The columns of a row, in order.
-const COLUMNS: &[&str] = &[
-    "spp",
-    "rings",
-    "low_freq_power",
-    "mean_radial_power",
-    "peak_power",
-    "peak_kx",
-    "peak_ky",
-    "peak_radius",
-    "mean_anisotropy_db",
-    "white_noise_anisotropy_db",
-    "compute_s",
-    "spectrum_png",
-    "radial_csv",
-];
+/// One row: the summary of one sampler's periodogram, and its files.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct AaPatternsRow {
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Rings of the radial profile.
+    pub rings: usize,
+    /// Mean power for 0 < |k| ≤ √N/2.
+    pub low_freq_power: Sci<6>,
+    /// Mean of the radial profile.
+    pub mean_radial_power: Sci<6>,
+    /// Largest power over k ≠ 0.
+    pub peak_power: Sci<6>,
+    /// Its frequency, x.
+    pub peak_kx: i64,
+    /// Its frequency, y.
+    pub peak_ky: i64,
+    /// |k| of the peak.
+    pub peak_radius: Fixed<6>,
+    /// Mean anisotropy over the rings, dB.
+    pub mean_anisotropy_db: Fixed<4>,
+    /// Anisotropy of white noise with as many sets, dB.
+    pub white_noise_anisotropy_db: Fixed<4>,
+    /// Time to compute the periodogram.
+    pub compute_s: Secs,
+    /// The periodogram image.
+    pub spectrum_png: String,
+    /// Every ring, as CSV.
+    pub radial_csv: String,
+}
 
 impl Study for AaPatterns {
-    fn kind(&self) -> &'static str {
-        "aa_patterns"
+    type Params = AaPatternsParams;
+    type Config = Config;
+    type Row = AaPatternsRow;
+
+    fn configure(&self, p: AaPatternsParams, _base_dir: &Path) -> Result<Config, ParamError> {
+        let sets = p.sets.map_or(DEFAULT_SETS, |v| v.get() as usize);
+        let freq = p.freq.map_or(DEFAULT_FREQ, |v| v.get() as usize);
+        check_sets_and_freq(sets, freq).map_err(|e| ParamError::new("sets", e))?;
+        Ok(Config {
+            sampler: p.sampler,
+            sets,
+            freq,
+            seed: p.seed.unwrap_or(DEFAULT_SEED),
+        })
     }
 
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMETERS
-    }
-
-    fn columns(&self, _settings: &StudySettings) -> Vec<String> {
-        COLUMNS.iter().map(|s| s.to_string()).collect()
-    }
-
-    fn check(&self, run: &RunPoint, _base_dir: &Path) -> Result<(), ParamError> {
-        config(run).map(|_| ())
-    }
-
-    fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Row> {
-        let cfg = config(run).map_err(ParamError::into_error)?;
+    fn run(
+        &self,
+        cfg: Config,
+        run: &RunPoint,
+        ctx: &RunContext<'_>,
+    ) -> anyhow::Result<AaPatternsRow> {
+        // The label as the manifest writes it (legends of the overlays).
+        let label = run
+            .get("sampler")
+            .map_or_else(|| cfg.sampler.name(), |v| v.to_string());
         let start = Instant::now();
-        let spectrum =
-            PatternSpectrum::compute(&cfg.label, cfg.sampler, cfg.sets, cfg.freq, cfg.seed);
+        let spectrum = PatternSpectrum::compute(&label, cfg.sampler, cfg.sets, cfg.freq, cfg.seed);
         let compute_s = start.elapsed().as_secs_f64();
         let stem = cfg.stem();
         spectrum.save_heatmap(&ctx.out_dir.join(format!("{stem}-spectrum")))?;
@@ -150,31 +173,21 @@ impl Study for AaPatterns {
         write_rings_csv(&ctx.out_dir.join(&csv_name), &[spectrum.curve()])?;
 
         let m = &spectrum.summary;
-        let num = |v: f64| format!("{v:.6e}");
-        Ok(vec![
-            ("spp".into(), cfg.sampler.spp().to_string()),
-            (
-                "rings".into(),
-                spectrum.periodogram.rings().len().to_string(),
-            ),
-            ("low_freq_power".into(), num(m.low_freq_power)),
-            ("mean_radial_power".into(), num(m.mean_radial_power)),
-            ("peak_power".into(), num(m.peak_power)),
-            ("peak_kx".into(), m.peak_k.0.to_string()),
-            ("peak_ky".into(), m.peak_k.1.to_string()),
-            ("peak_radius".into(), format!("{:.6}", m.peak_radius())),
-            (
-                "mean_anisotropy_db".into(),
-                format!("{:.4}", m.mean_anisotropy_db),
-            ),
-            (
-                "white_noise_anisotropy_db".into(),
-                format!("{:.4}", m.white_noise_anisotropy_db),
-            ),
-            ("compute_s".into(), seconds_cell(compute_s)),
-            ("spectrum_png".into(), format!("{stem}-spectrum.png")),
-            ("radial_csv".into(), csv_name),
-        ])
+        Ok(AaPatternsRow {
+            spp: cfg.sampler.spp(),
+            rings: spectrum.periodogram.rings().len(),
+            low_freq_power: Sci(m.low_freq_power),
+            mean_radial_power: Sci(m.mean_radial_power),
+            peak_power: Sci(m.peak_power),
+            peak_kx: m.peak_k.0,
+            peak_ky: m.peak_k.1,
+            peak_radius: Fixed(m.peak_radius()),
+            mean_anisotropy_db: Fixed(m.mean_anisotropy_db),
+            white_noise_anisotropy_db: Fixed(m.white_noise_anisotropy_db),
+            compute_s: Secs(compute_s),
+            spectrum_png: format!("{stem}-spectrum.png"),
+            radial_csv: csv_name,
+        })
     }
 
     fn figures(&self, table: &Table, out_dir: &Path) -> anyhow::Result<Vec<String>> {
@@ -220,6 +233,7 @@ impl Study for AaPatterns {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::experiment::params::Params;
     use crate::experiment::sweep::{RunParam, Value};
 
     fn point(params: &[(&str, Value)]) -> RunPoint {
@@ -234,6 +248,10 @@ mod tests {
                 })
                 .collect(),
         }
+    }
+
+    fn config(run: &RunPoint) -> Result<Config, ParamError> {
+        AaPatterns.configure(AaPatternsParams::from_run(run)?, Path::new("."))
     }
 
     #[test]

@@ -23,11 +23,13 @@
 //! allows a handful in a million, see `raylab validate`): a throughput
 //! figure for a different answer would compare nothing.
 
-use super::{
-    int_param, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext, Study,
-    StudySettings, Timings,
-};
+use super::{RunContext, Study, Timings};
 use crate::accel::{Accel, AccelKind, Accelerator};
+use crate::experiment::params::render::scene_file;
+use crate::experiment::params::{
+    or_default, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+};
+use crate::experiment::row::{Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
 use crate::io::scene_file::{load_scene, Overrides};
 use crate::scene::Scene;
@@ -35,45 +37,77 @@ use crate::shape::PreparedRay;
 use crate::stats::{Counters, NoStats};
 use crate::workload::{trace, trace_serial, Segment, Workload};
 use rayon::prelude::*;
+use serde::ser::SerializeMap;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// The `accel_speed` study.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct AccelSpeed;
 
-const PARAMETERS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "scene",
-        doc: "scene file (TOML), relative to the manifest's folder; required",
-    },
-    ParamDoc {
-        name: "accel",
-        doc: "raylab's accelerator to measure (default `bvh4`, the 4-wide SAH box BVH)",
-    },
-    ParamDoc {
-        name: "reference",
-        doc: "the accelerator it is measured against (default `embree:high+robust`)",
-    },
-    ParamDoc {
-        name: "resolution",
-        doc:
-            "camera rays \"WxH\" (default \"800x600\"); shadow and diffuse rays start at their hits",
-    },
-    ParamDoc {
-        name: "random_rays",
-        doc: "rays through the bounds (default: as many as pixels)",
-    },
-    ParamDoc {
-        name: "threads",
-        doc: "worker threads tracing (default 1)",
-    },
-    ParamDoc {
-        name: "seed",
-        doc: "seed of the diffuse and random rays (default 1)",
-    },
-];
+/// The parameters of a run.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AccelSpeedParams {
+    /// Scene file, relative to the manifest's folder.
+    pub scene: String,
+    /// raylab's accelerator to measure.
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub accel: Option<AccelKind>,
+    /// The accelerator it is measured against.
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub reference: Option<AccelKind>,
+    /// Camera rays "WxH".
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub resolution: Option<Resolution>,
+    /// Rays through the scene's bounds.
+    #[serde(default)]
+    pub random_rays: Option<InRange<0, { 1 << 30 }>>,
+    /// Worker threads tracing.
+    #[serde(default)]
+    pub threads: Option<InRange<1, 1024>>,
+    /// Seed of the diffuse and random rays.
+    #[serde(default)]
+    pub seed: Option<u64>,
+}
 
-struct Config {
+typed_params!(
+    AccelSpeedParams,
+    [
+        ParamDoc {
+            name: "scene",
+            doc: "scene file (TOML), relative to the manifest's folder; required",
+        },
+        ParamDoc {
+            name: "accel",
+            doc: "raylab's accelerator to measure (default `bvh4`, the 4-wide SAH box BVH)",
+        },
+        ParamDoc {
+            name: "reference",
+            doc: "the accelerator it is measured against (default `embree:high+robust`)",
+        },
+        ParamDoc {
+            name: "resolution",
+            doc: "camera rays \"WxH\" (default \"800x600\"); shadow and diffuse rays start \
+                  at their hits",
+        },
+        ParamDoc {
+            name: "random_rays",
+            doc: "rays through the bounds (default: as many as pixels)",
+        },
+        ParamDoc {
+            name: "threads",
+            doc: "worker threads tracing (default 1)",
+        },
+        ParamDoc {
+            name: "seed",
+            doc: "seed of the diffuse and random rays (default 1)",
+        },
+    ]
+);
+
+/// A run's parameters, checked.
+pub struct Config {
     scene: PathBuf,
     accel: AccelKind,
     reference: AccelKind,
@@ -82,41 +116,6 @@ struct Config {
     random: Option<usize>,
     threads: usize,
     seed: u64,
-}
-
-fn accel_param(run: &RunPoint, name: &str, default: &str) -> Result<AccelKind, ParamError> {
-    str_param(run, name)?
-        .unwrap_or(default)
-        .parse()
-        .map_err(|e| ParamError::new(name, e))
-}
-
-fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
-    let scene = super::render_cost::scene_param(run, base_dir)?;
-    let accel = accel_param(run, "accel", "bvh4")?;
-    let reference = accel_param(run, "reference", "embree:high+robust")?;
-    let (width, height) = match str_param(run, "resolution")? {
-        None => (800, 600),
-        Some(r) => super::render_cost::parse_resolution(r).ok_or_else(|| {
-            ParamError::new(
-                "resolution",
-                format!("`{r}` is not \"WxH\" with positive sides"),
-            )
-        })?,
-    };
-    let random = int_param(run, "random_rays", 0, 1 << 30)?.map(|n| n as usize);
-    let threads = int_param(run, "threads", 1, 1024)?.unwrap_or(1) as usize;
-    let seed = int_param(run, "seed", 0, i64::MAX)?.unwrap_or(1) as u64;
-    Ok(Config {
-        scene,
-        accel,
-        reference,
-        width,
-        height,
-        random,
-        threads,
-        seed,
-    })
 }
 
 /// Whether each ray of `rays` hits, through `accel` (any-hit or closest).
@@ -134,47 +133,106 @@ fn hit_flags(accel: &Accelerator, scene: &Scene, rays: &[Segment], any_hit: bool
         .collect()
 }
 
-const SIDES: [&str; 2] = ["ours", "ref"];
+/// The two sides of a row: raylab's accelerator and the reference.
+pub const SIDES: [&str; 2] = ["ours", "ref"];
+
+/// One ray set's columns.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct KindCells {
+    /// Rays in the set.
+    pub rays: usize,
+    /// Rays our side found a hit for.
+    pub hits: usize,
+    /// Rays where only one side found a hit.
+    pub hit_disagree: usize,
+    /// Median time of each side ([`SIDES`]).
+    pub median_s: [Secs; 2],
+    /// Throughput of each side, Mrays/s.
+    pub mrays_s: [Fixed<4>; 2],
+    /// Our throughput over the reference's.
+    pub ratio: Fixed<4>,
+    /// Nodes visited per ray (our side).
+    pub nodes_per_ray: Fixed<3>,
+    /// Bounding-volume tests per ray (our side).
+    pub volume_tests_per_ray: Fixed<3>,
+    /// Primitive tests per ray (our side).
+    pub prim_tests_per_ray: Fixed<3>,
+}
+
+/// The columns of every ray set, in [`Workload::KINDS`] order, each named
+/// after its kind: `primary_rays`, …, `ours_primary_median_s`, ….
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PerKind(pub [KindCells; 4]);
+
+impl Serialize for PerKind {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut map = s.serialize_map(None)?;
+        for (k, c) in Workload::KINDS.iter().zip(&self.0) {
+            map.serialize_entry(&format!("{k}_rays"), &c.rays)?;
+            map.serialize_entry(&format!("{k}_hits"), &c.hits)?;
+            map.serialize_entry(&format!("{k}_hit_disagree"), &c.hit_disagree)?;
+            for (i, side) in SIDES.iter().enumerate() {
+                map.serialize_entry(&format!("{side}_{k}_median_s"), &c.median_s[i])?;
+                map.serialize_entry(&format!("{side}_{k}_mrays_s"), &c.mrays_s[i])?;
+            }
+            map.serialize_entry(&format!("{k}_ratio"), &c.ratio)?;
+            map.serialize_entry(&format!("{k}_nodes_per_ray"), &c.nodes_per_ray)?;
+            map.serialize_entry(
+                &format!("{k}_volume_tests_per_ray"),
+                &c.volume_tests_per_ray,
+            )?;
+            map.serialize_entry(&format!("{k}_prim_tests_per_ray"), &c.prim_tests_per_ray)?;
+        }
+        map.end()
+    }
+}
+
+/// One row: both accelerators on one scene's four ray sets.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct AccelSpeedRow {
+    /// Triangles of the scene.
+    pub triangles: usize,
+    /// Bounded primitives (what the accelerators hold).
+    pub primitives: usize,
+    /// Worker threads tracing.
+    pub threads: usize,
+    /// Median build time of our accelerator.
+    pub ours_build_median_s: Secs,
+    /// Median build time of the reference.
+    pub ref_build_median_s: Secs,
+    /// The ray sets.
+    #[serde(flatten)]
+    pub kinds: PerKind,
+}
 
 impl Study for AccelSpeed {
-    fn kind(&self) -> &'static str {
-        "accel_speed"
+    type Params = AccelSpeedParams;
+    type Config = Config;
+    type Row = AccelSpeedRow;
+
+    fn configure(&self, p: AccelSpeedParams, base_dir: &Path) -> Result<Config, ParamError> {
+        let res = p.resolution.unwrap_or(Resolution {
+            width: 800,
+            height: 600,
+        });
+        Ok(Config {
+            scene: scene_file(base_dir, &p.scene)?,
+            accel: or_default(p.accel, "accel", "bvh4")?,
+            reference: or_default(p.reference, "reference", "embree:high+robust")?,
+            width: res.width,
+            height: res.height,
+            random: p.random_rays.map(|n| n.get() as usize),
+            threads: p.threads.map_or(1, |t| t.get() as usize),
+            seed: p.seed.unwrap_or(1),
+        })
     }
 
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMETERS
-    }
-
-    fn columns(&self, _settings: &StudySettings) -> Vec<String> {
-        let mut cols: Vec<String> = ["triangles", "primitives", "threads"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        for side in SIDES {
-            cols.push(format!("{side}_build_median_s"));
-        }
-        for k in Workload::KINDS {
-            cols.push(format!("{k}_rays"));
-            cols.push(format!("{k}_hits"));
-            cols.push(format!("{k}_hit_disagree"));
-            for side in SIDES {
-                cols.push(format!("{side}_{k}_median_s"));
-                cols.push(format!("{side}_{k}_mrays_s"));
-            }
-            cols.push(format!("{k}_ratio"));
-            cols.push(format!("{k}_nodes_per_ray"));
-            cols.push(format!("{k}_volume_tests_per_ray"));
-            cols.push(format!("{k}_prim_tests_per_ray"));
-        }
-        cols
-    }
-
-    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), ParamError> {
-        config(run, base_dir).map(|_| ())
-    }
-
-    fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Row> {
-        let cfg = config(run, ctx.base_dir).map_err(ParamError::into_error)?;
+    fn run(
+        &self,
+        cfg: Config,
+        _run: &RunPoint,
+        ctx: &RunContext<'_>,
+    ) -> anyhow::Result<AccelSpeedRow> {
         let overrides = Overrides {
             width: Some(cfg.width),
             height: Some(cfg.height),
@@ -187,21 +245,14 @@ impl Study for AccelSpeed {
             .collect();
         let (warmup, repeats) = (ctx.settings.warmup, ctx.settings.repeats);
         let mut sides = Vec::new();
-        let mut row: Row = vec![
-            ("triangles".into(), scene.triangle_count().to_string()),
-            ("primitives".into(), bounded.len().to_string()),
-            ("threads".into(), cfg.threads.to_string()),
-        ];
-        for (side, kind) in SIDES.iter().zip([cfg.accel, cfg.reference]) {
+        let mut build_s = [Secs::default(); 2];
+        for (i, kind) in [cfg.accel, cfg.reference].into_iter().enumerate() {
             let build = Timings::measure(warmup, repeats, || {
                 Accelerator::build(kind, &scene.prims, bounded.clone())
             });
             let accel = Accelerator::build(kind, &scene.prims, bounded.clone())
                 .map_err(|e| anyhow::anyhow!("building `{kind}`: {e}"))?;
-            row.push((
-                format!("{side}_build_median_s"),
-                seconds_cell(build.median()),
-            ));
+            build_s[i] = Secs(build.median());
             sides.push(accel);
         }
         let random = cfg.random.unwrap_or((cfg.width * cfg.height) as usize);
@@ -209,18 +260,13 @@ impl Study for AccelSpeed {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(cfg.threads)
             .build()?;
-        for k in Workload::KINDS {
+        let mut kinds = PerKind::default();
+        for (k, cells) in Workload::KINDS.into_iter().zip(&mut kinds.0) {
             let rays = work.get(k);
             let flags: Vec<Vec<bool>> = sides
                 .iter()
                 .map(|a| hit_flags(a, &scene, rays, k.any_hit()))
                 .collect();
-            let hits = flags[0].iter().filter(|&&h| h).count();
-            let disagree = flags[0]
-                .iter()
-                .zip(&flags[1])
-                .filter(|(a, b)| a != b)
-                .count();
             let mut times: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
             pool.install(|| {
                 for a in &sides {
@@ -235,27 +281,38 @@ impl Study for AccelSpeed {
                     }
                 }
             });
-            row.push((format!("{k}_rays"), rays.len().to_string()));
-            row.push((format!("{k}_hits"), hits.to_string()));
-            row.push((format!("{k}_hit_disagree"), disagree.to_string()));
+            cells.rays = rays.len();
+            cells.hits = flags[0].iter().filter(|&&h| h).count();
+            cells.hit_disagree = flags[0]
+                .iter()
+                .zip(&flags[1])
+                .filter(|(a, b)| a != b)
+                .count();
             let mut mrays = [0.0; 2];
-            for (i, side) in SIDES.iter().enumerate() {
+            for i in 0..SIDES.len() {
                 let median = super::median(&times[i]);
                 mrays[i] = rays.len() as f64 / median / 1e6;
-                row.push((format!("{side}_{k}_median_s"), seconds_cell(median)));
-                row.push((format!("{side}_{k}_mrays_s"), format!("{:.4}", mrays[i])));
+                cells.median_s[i] = Secs(median);
+                cells.mrays_s[i] = Fixed(mrays[i]);
             }
-            row.push((format!("{k}_ratio"), format!("{:.4}", mrays[0] / mrays[1])));
+            cells.ratio = Fixed(mrays[0] / mrays[1]);
             // The work behind our side's time, counted in one more pass.
             let mut c = Counters::default();
             trace_serial(&sides[0], &scene, rays, k.any_hit(), &mut c);
-            let per_ray = |n: u64| format!("{:.3}", n as f64 / rays.len().max(1) as f64);
-            let volume_tests = c.box_tests + c.bounding_sphere_tests + c.bounding_ellipsoid_tests;
-            let prim_tests = c.triangle_tests + c.sphere_tests + c.ellipsoid_tests;
-            row.push((format!("{k}_nodes_per_ray"), per_ray(c.nodes_visited)));
-            row.push((format!("{k}_volume_tests_per_ray"), per_ray(volume_tests)));
-            row.push((format!("{k}_prim_tests_per_ray"), per_ray(prim_tests)));
+            let per_ray = |n: u64| Fixed(n as f64 / rays.len().max(1) as f64);
+            cells.nodes_per_ray = per_ray(c.nodes_visited);
+            cells.volume_tests_per_ray =
+                per_ray(c.box_tests + c.bounding_sphere_tests + c.bounding_ellipsoid_tests);
+            cells.prim_tests_per_ray =
+                per_ray(c.triangle_tests + c.sphere_tests + c.ellipsoid_tests);
         }
-        Ok(row)
+        Ok(AccelSpeedRow {
+            triangles: scene.triangle_count(),
+            primitives: bounded.len(),
+            threads: cfg.threads,
+            ours_build_median_s: build_s[0],
+            ref_build_median_s: build_s[1],
+            kinds,
+        })
     }
 }

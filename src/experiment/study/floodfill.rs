@@ -20,16 +20,20 @@
 //! `slice` after steps 1, 2, 4, 8, … (S4's Figure 10), in a false-colour
 //! log scale shared by all snapshots of the run (solid voxels grey).
 
-use super::{
-    bool_param, float_param, int_param, seconds_cell, str_param, ParamDoc, ParamError, Row,
-    RunContext, Study, StudySettings,
-};
+use super::{median, RunContext, Study};
 use crate::analysis::plot::{ImageGrid, LineChart, Palette, Scale, Series, SeriesStyle};
+use crate::experiment::params::render::scene_file;
+use crate::experiment::params::{
+    parsed_opt, typed_params, FromParam, InRange, ParamDoc, ParamError,
+};
+use crate::experiment::row::{Exp, Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
+use crate::gi::voxel::MAX_RESOLUTION;
 use crate::gi::{Averaging, FloodFill, FloodFillConfig, GridSpec, Residual, Threads, VoxelGrid};
 use crate::io::scene_file::{load_scene, Overrides};
 use crate::math::{luminance, srgb_decode, Vec3};
 use ndarray::Array3;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -37,83 +41,190 @@ use std::time::Instant;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct FloodFillStudy;
 
-const PARAMETERS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "scene",
-        doc: "scene file (TOML), relative to the manifest's folder; required",
-    },
-    ParamDoc {
-        name: "resolution",
-        doc: "voxels along the scene's longest axis (default 64)",
-    },
-    ParamDoc {
-        name: "alpha",
-        doc: "gain per step α (default 1, energy-consistent; S4: 2.43902)",
-    },
-    ParamDoc {
-        name: "averaging",
-        doc: "`linear` (default) or `gamma` (S4's: mean of I^2.2, to the 1/2.2)",
-    },
-    ParamDoc {
-        name: "surface_bounce",
-        doc: "walls reflect the light in front of them (default true; S4: false)",
-    },
-    ParamDoc {
-        name: "max_irradiance",
-        doc: "stored values saturate here (default: no clamp)",
-    },
-    ParamDoc {
-        name: "steps",
-        doc: "propagation steps to run (default 256)",
-    },
-    ParamDoc {
-        name: "tolerance",
-        doc: "converged when max residual < tolerance × max I (default 1e-4)",
-    },
-    ParamDoc {
-        name: "snapshots",
-        doc: "write the residual figure and grid-slice snapshots (default false)",
-    },
-    ParamDoc {
-        name: "slice",
-        doc: "depth of the snapshot slice as a fraction of the grid's z (default 0.5)",
-    },
-    ParamDoc {
-        name: "lit_box",
-        doc: "\"x0 y0 z0 x1 y1 z1\": the lit room, for `lit_mean` (optional)",
-    },
-    ParamDoc {
-        name: "dark_box",
-        doc: "\"x0 y0 z0 x1 y1 z1\": the dark room, for `dark_mean`, `leak_ratio` (optional)",
-    },
-];
+/// How neighbour values are averaged, as the manifest names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AveragingParam {
+    /// [`Averaging::Linear`].
+    Linear,
+    /// [`Averaging::Gamma`].
+    Gamma,
+}
 
-const COLUMNS: &[&str] = &[
-    "grid_x",
-    "grid_y",
-    "grid_z",
-    "voxel_size",
-    "empty_voxels",
-    "opaque_voxels",
-    "emissive_voxels",
-    "build_s",
-    "step_ms",
-    "steps_per_s",
-    "steps_run",
-    "converged_step",
-    "final_residual_l2",
-    "final_residual_max",
-    "final_residual_rel",
-    "mean_luminance",
-    "max_luminance",
-    "diverged",
-    "lit_mean",
-    "dark_mean",
-    "leak_ratio",
-];
+/// An axis-aligned box "x0 y0 z0 x1 y1 z1" (corners in any order).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoxParam {
+    /// The smallest corner.
+    pub min: Vec3,
+    /// The largest corner.
+    pub max: Vec3,
+}
 
-/// A run's parameters, parsed.
-struct Config {
+impl FromParam for BoxParam {
+    fn from_param(s: &str) -> Result<Self, String> {
+        let v: Vec<f32> = s
+            .split_whitespace()
+            .map(str::parse::<f32>)
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("`{s}`: expected six numbers"))?;
+        if v.len() != 6 || v.iter().any(|x| !x.is_finite()) {
+            return Err(format!(
+                "`{s}`: expected six finite numbers \"x0 y0 z0 x1 y1 z1\""
+            ));
+        }
+        let (a, b) = (Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]));
+        Ok(BoxParam {
+            min: a.min(b),
+            max: a.max(b),
+        })
+    }
+}
+
+/// The parameters of a run.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FloodFillParams {
+    /// Scene file, relative to the manifest's folder.
+    pub scene: String,
+    /// Voxels along the scene's longest axis.
+    #[serde(default)]
+    pub resolution: Option<InRange<1, { MAX_RESOLUTION as i64 }>>,
+    /// Gain per step.
+    #[serde(default)]
+    pub alpha: Option<f64>,
+    /// Linear or gamma-space averaging.
+    #[serde(default)]
+    pub averaging: Option<AveragingParam>,
+    /// Whether walls reflect the light in front of them.
+    #[serde(default)]
+    pub surface_bounce: Option<bool>,
+    /// Stored values saturate here.
+    #[serde(default)]
+    pub max_irradiance: Option<f64>,
+    /// Propagation steps.
+    #[serde(default)]
+    pub steps: Option<InRange<1, 1_000_000>>,
+    /// Convergence tolerance, relative to the largest value.
+    #[serde(default)]
+    pub tolerance: Option<f64>,
+    /// Write the residual figure and snapshots.
+    #[serde(default)]
+    pub snapshots: bool,
+    /// Depth of the snapshot slice, a fraction of the grid's z.
+    #[serde(default)]
+    pub slice: Option<f64>,
+    /// The lit room.
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub lit_box: Option<BoxParam>,
+    /// The dark room.
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub dark_box: Option<BoxParam>,
+}
+
+typed_params!(
+    FloodFillParams,
+    [
+        ParamDoc {
+            name: "scene",
+            doc: "scene file (TOML), relative to the manifest's folder; required",
+        },
+        ParamDoc {
+            name: "resolution",
+            doc: "voxels along the scene's longest axis (default 64)",
+        },
+        ParamDoc {
+            name: "alpha",
+            doc: "gain per step α (default 1, energy-consistent; S4: 2.43902)",
+        },
+        ParamDoc {
+            name: "averaging",
+            doc: "`linear` (default) or `gamma` (S4's: mean of I^2.2, to the 1/2.2)",
+        },
+        ParamDoc {
+            name: "surface_bounce",
+            doc: "walls reflect the light in front of them (default true; S4: false)",
+        },
+        ParamDoc {
+            name: "max_irradiance",
+            doc: "stored values saturate here (default: no clamp)",
+        },
+        ParamDoc {
+            name: "steps",
+            doc: "propagation steps to run (default 256)",
+        },
+        ParamDoc {
+            name: "tolerance",
+            doc: "converged when max residual < tolerance × max I (default 1e-4)",
+        },
+        ParamDoc {
+            name: "snapshots",
+            doc: "write the residual figure and grid-slice snapshots (default false)",
+        },
+        ParamDoc {
+            name: "slice",
+            doc: "depth of the snapshot slice as a fraction of the grid's z (default 0.5)",
+        },
+        ParamDoc {
+            name: "lit_box",
+            doc: "\"x0 y0 z0 x1 y1 z1\": the lit room, for `lit_mean` (optional)",
+        },
+        ParamDoc {
+            name: "dark_box",
+            doc: "\"x0 y0 z0 x1 y1 z1\": the dark room, for `dark_mean`, `leak_ratio` \
+                  (optional)",
+        },
+    ]
+);
+
+/// One row: how the cache converged, what it cost, how much light leaked.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct FloodFillRow {
+    /// Grid size, x.
+    pub grid_x: usize,
+    /// Grid size, y.
+    pub grid_y: usize,
+    /// Grid size, z.
+    pub grid_z: usize,
+    /// Side of a voxel.
+    pub voxel_size: Exp<f32>,
+    /// Empty voxels.
+    pub empty_voxels: usize,
+    /// Opaque voxels.
+    pub opaque_voxels: usize,
+    /// Emissive voxels.
+    pub emissive_voxels: usize,
+    /// Voxelising and setting up the sources.
+    pub build_s: Secs,
+    /// Median step time, ms.
+    pub step_ms: Fixed<4>,
+    /// Steps per second at that time.
+    pub steps_per_s: Fixed<1>,
+    /// Steps run.
+    pub steps_run: usize,
+    /// First converged step (empty: never).
+    pub converged_step: Option<usize>,
+    /// Last step's L2 residual.
+    pub final_residual_l2: Exp,
+    /// Last step's max residual.
+    pub final_residual_max: Exp,
+    /// Last max residual over the largest value.
+    pub final_residual_rel: Exp,
+    /// Mean luminance over the empty voxels.
+    pub mean_luminance: Exp,
+    /// Largest luminance over the empty voxels.
+    pub max_luminance: Exp,
+    /// Whether the run diverged.
+    pub diverged: bool,
+    /// Mean luminance in `lit_box`.
+    pub lit_mean: Exp,
+    /// Mean luminance in `dark_box`.
+    pub dark_mean: Exp,
+    /// `dark_mean / lit_mean`.
+    pub leak_ratio: Exp,
+}
+
+/// A run's parameters, checked.
+pub struct Config {
     scene: PathBuf,
     resolution: usize,
     ff: FloodFillConfig,
@@ -123,83 +234,6 @@ struct Config {
     slice: f64,
     lit_box: Option<(Vec3, Vec3)>,
     dark_box: Option<(Vec3, Vec3)>,
-}
-
-fn box_param(run: &RunPoint, name: &str) -> Result<Option<(Vec3, Vec3)>, ParamError> {
-    let Some(s) = str_param(run, name)? else {
-        return Ok(None);
-    };
-    let v: Vec<f32> = s
-        .split_whitespace()
-        .map(str::parse::<f32>)
-        .collect::<Result<_, _>>()
-        .map_err(|_| ParamError::new(name, format!("`{s}`: expected six numbers")))?;
-    if v.len() != 6 || v.iter().any(|x| !x.is_finite()) {
-        return Err(ParamError::new(
-            name,
-            format!("`{s}`: expected six finite numbers \"x0 y0 z0 x1 y1 z1\""),
-        ));
-    }
-    let (a, b) = (Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]));
-    Ok(Some((a.min(b), a.max(b))))
-}
-
-fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
-    let scene = super::render_cost::scene_param(run, base_dir)?;
-    let resolution = int_param(
-        run,
-        "resolution",
-        1,
-        crate::gi::voxel::MAX_RESOLUTION as i64,
-    )?
-    .unwrap_or(64) as usize;
-    let mut ff = FloodFillConfig::default();
-    if let Some(a) = float_param(run, "alpha", f64::MIN, f64::MAX)? {
-        ff.alpha = a as f32;
-    }
-    ff.averaging = match str_param(run, "averaging")? {
-        None | Some("linear") => Averaging::Linear,
-        Some("gamma") => Averaging::Gamma,
-        Some(s) => {
-            return Err(ParamError::new(
-                "averaging",
-                format!("`{s}`: expected `linear` or `gamma`"),
-            ))
-        }
-    };
-    if let Some(b) = bool_param(run, "surface_bounce")? {
-        ff.surface_bounce = b;
-    }
-    if let Some(m) = float_param(run, "max_irradiance", f64::MIN, f64::MAX)? {
-        ff.max_irradiance = m as f32;
-    }
-    ff.validate().map_err(|e| ParamError {
-        param: None,
-        message: e,
-    })?;
-    let steps = int_param(run, "steps", 1, 1_000_000)?.unwrap_or(256) as usize;
-    let tolerance = float_param(run, "tolerance", f64::MIN, f64::MAX)?.unwrap_or(1e-4);
-    if tolerance <= 0.0 {
-        return Err(ParamError::new("tolerance", "must be positive"));
-    }
-    let slice = float_param(run, "slice", f64::MIN, f64::MAX)?.unwrap_or(0.5);
-    if !(0.0..=1.0).contains(&slice) {
-        return Err(ParamError::new(
-            "slice",
-            format!("must be in [0, 1], got {slice}"),
-        ));
-    }
-    Ok(Config {
-        scene,
-        resolution,
-        ff,
-        steps,
-        tolerance,
-        snapshots: bool_param(run, "snapshots")?.unwrap_or(false),
-        slice,
-        lit_box: box_param(run, "lit_box")?,
-        dark_box: box_param(run, "dark_box")?,
-    })
 }
 
 /// Mean luminance of the empty voxels whose centres lie in `b` (NaN when
@@ -217,15 +251,6 @@ fn box_mean(grid: &VoxelGrid, im: &Array3<Vec3>, b: (Vec3, Vec3)) -> f64 {
         f64::NAN
     } else {
         sum / n as f64
-    }
-}
-
-/// Number formatting for data.csv: empty for NaN.
-fn cell(x: f64) -> String {
-    if x.is_nan() {
-        String::new()
-    } else {
-        format!("{x:e}")
     }
 }
 
@@ -293,24 +318,57 @@ fn run_tag(run: &RunPoint) -> String {
 }
 
 impl Study for FloodFillStudy {
-    fn kind(&self) -> &'static str {
-        "floodfill"
+    type Params = FloodFillParams;
+    type Config = Config;
+    type Row = FloodFillRow;
+
+    fn configure(&self, p: FloodFillParams, base_dir: &Path) -> Result<Config, ParamError> {
+        let mut ff = FloodFillConfig::default();
+        if let Some(a) = p.alpha {
+            ff.alpha = a as f32;
+        }
+        ff.averaging = match p.averaging {
+            None | Some(AveragingParam::Linear) => Averaging::Linear,
+            Some(AveragingParam::Gamma) => Averaging::Gamma,
+        };
+        if let Some(b) = p.surface_bounce {
+            ff.surface_bounce = b;
+        }
+        if let Some(m) = p.max_irradiance {
+            ff.max_irradiance = m as f32;
+        }
+        ff.validate().map_err(ParamError::run)?;
+        let tolerance = p.tolerance.unwrap_or(1e-4);
+        if tolerance <= 0.0 {
+            return Err(ParamError::new("tolerance", "must be positive"));
+        }
+        let slice = p.slice.unwrap_or(0.5);
+        if !(0.0..=1.0).contains(&slice) {
+            return Err(ParamError::new(
+                "slice",
+                format!("must be in [0, 1], got {slice}"),
+            ));
+        }
+        let corners = |b: Option<BoxParam>| b.map(|b| (b.min, b.max));
+        Ok(Config {
+            scene: scene_file(base_dir, &p.scene)?,
+            resolution: p.resolution.map_or(64, |r| r.get() as usize),
+            ff,
+            steps: p.steps.map_or(256, |s| s.get() as usize),
+            tolerance,
+            snapshots: p.snapshots,
+            slice,
+            lit_box: corners(p.lit_box),
+            dark_box: corners(p.dark_box),
+        })
     }
 
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMETERS
-    }
-
-    fn columns(&self, _settings: &StudySettings) -> Vec<String> {
-        COLUMNS.iter().map(|s| s.to_string()).collect()
-    }
-
-    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), ParamError> {
-        config(run, base_dir).map(|_| ())
-    }
-
-    fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Row> {
-        let cfg = config(run, ctx.base_dir).map_err(ParamError::into_error)?;
+    fn run(
+        &self,
+        cfg: Config,
+        run: &RunPoint,
+        ctx: &RunContext<'_>,
+    ) -> anyhow::Result<FloodFillRow> {
         let scene = load_scene(&cfg.scene, &Overrides::default())?;
         let start = Instant::now();
         let grid = VoxelGrid::from_scene(&scene, &GridSpec::new(cfg.resolution))
@@ -369,7 +427,7 @@ impl Study for FloodFillStudy {
         let diverged =
             !finite || (converged.is_none() && max_at_half > 0.0 && vmax / max_at_half > 2.0);
         let last = residuals.last().copied().unwrap_or_default();
-        let step_s = super::median(&times);
+        let step_s = median(&times);
         let lit = cfg.lit_box.map_or(f64::NAN, |b| box_mean(&grid, &im, b));
         let dark = cfg.dark_box.map_or(f64::NAN, |b| box_mean(&grid, &im, b));
 
@@ -432,31 +490,28 @@ impl Study for FloodFillStudy {
         }
 
         let (empty, opaque, emissive) = grid.counts();
-        Ok(vec![
-            ("grid_x".into(), dims[0].to_string()),
-            ("grid_y".into(), dims[1].to_string()),
-            ("grid_z".into(), dims[2].to_string()),
-            ("voxel_size".into(), format!("{:e}", grid.voxel_size)),
-            ("empty_voxels".into(), empty.to_string()),
-            ("opaque_voxels".into(), opaque.to_string()),
-            ("emissive_voxels".into(), emissive.to_string()),
-            ("build_s".into(), seconds_cell(build_s)),
-            ("step_ms".into(), format!("{:.4}", step_s * 1e3)),
-            ("steps_per_s".into(), format!("{:.1}", 1.0 / step_s)),
-            ("steps_run".into(), cfg.steps.to_string()),
-            (
-                "converged_step".into(),
-                converged.map_or(String::new(), |s| s.to_string()),
-            ),
-            ("final_residual_l2".into(), cell(last.l2)),
-            ("final_residual_max".into(), cell(last.max)),
-            ("final_residual_rel".into(), cell(last.max / vmax)),
-            ("mean_luminance".into(), cell(lsum / n.max(1) as f64)),
-            ("max_luminance".into(), cell(lmax)),
-            ("diverged".into(), diverged.to_string()),
-            ("lit_mean".into(), cell(lit)),
-            ("dark_mean".into(), cell(dark)),
-            ("leak_ratio".into(), cell(dark / lit)),
-        ])
+        Ok(FloodFillRow {
+            grid_x: dims[0],
+            grid_y: dims[1],
+            grid_z: dims[2],
+            voxel_size: Exp(grid.voxel_size),
+            empty_voxels: empty,
+            opaque_voxels: opaque,
+            emissive_voxels: emissive,
+            build_s: Secs(build_s),
+            step_ms: Fixed(step_s * 1e3),
+            steps_per_s: Fixed(1.0 / step_s),
+            steps_run: cfg.steps,
+            converged_step: converged,
+            final_residual_l2: Exp(last.l2),
+            final_residual_max: Exp(last.max),
+            final_residual_rel: Exp(last.max / vmax),
+            mean_luminance: Exp(lsum / n.max(1) as f64),
+            max_luminance: Exp(lmax),
+            diverged,
+            lit_mean: Exp(lit),
+            dark_mean: Exp(dark),
+            leak_ratio: Exp(dark / lit),
+        })
     }
 }

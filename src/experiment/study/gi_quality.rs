@@ -32,7 +32,7 @@
 //! so b̂² includes the reference's noise, which is at most the
 //! `reference_variance` column (a reference of N spp has about 1/N of a
 //! 1-spp frame's variance). Clamping is itself biased at low sample
-//! counts (E[min(X, 1)] < min(E[X], 1) where a pixel's samples straddle 1),
+//! counts (E\[min(X, 1)\] < min(E\[X\], 1) where a pixel's samples straddle 1),
 //! so even an unbiased integrator shows a b̂² that shrinks as spp grows;
 //! this is the error a display shows, and `clamp = 0` removes it. Both
 //! estimates
@@ -53,14 +53,15 @@
 //! folder (S4's Fig. 12 for one configuration): frame 0, the mean of the
 //! frames, the reference and frame 0's ꟻLIP error map.
 
-use super::render_cost::{parse_resolution, scene_param};
-use super::{
-    float_param, int_param, median, seconds_cell, str_param, ParamDoc, ParamError, Row, RunContext,
-    Study, StudySettings,
-};
+use super::{median, RunContext, Study};
 use crate::accel::AccelKind;
 use crate::analysis::metrics::{compare, flip_error_map, mse};
 use crate::analysis::plot::{ImageGrid, Palette};
+use crate::experiment::params::render::scene_file;
+use crate::experiment::params::{
+    existing_file, or_default, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+};
+use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
 use crate::integrator::IntegratorKind;
 use crate::io::image::{read_exr_channels, read_image, LinearImage};
@@ -70,6 +71,7 @@ use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::stats::{Counters, NoStats};
 use ndarray::Array3;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -77,67 +79,111 @@ use std::time::Instant;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct GiQuality;
 
-const PARAMETERS: &[ParamDoc] = &[
-    ParamDoc {
-        name: "scene",
-        doc: "scene file (TOML), relative to the manifest's folder; required",
-    },
-    ParamDoc {
-        name: "integrator",
-        doc: "`direct`, `path:K` or `whitted` (default `path:4`)",
-    },
-    ParamDoc {
-        name: "spp",
-        doc: "samples per pixel, uniform random (`random:N`); or give `sampler`",
-    },
-    ParamDoc {
-        name: "sampler",
-        doc: "pixel sampler as `raylab render --sampler` (default: the scene's)",
-    },
-    ParamDoc {
-        name: "resolution",
-        doc: "image size as \"WxH\" (default: the scene's)",
-    },
-    ParamDoc {
-        name: "frames",
-        doc: "independent frames (seeds seed, seed+1, …), at least 2 (default 8)",
-    },
-    ParamDoc {
-        name: "seed",
-        doc: "seed of the first frame (default 0)",
-    },
-    ParamDoc {
-        name: "clamp",
-        doc: "errors are measured on values clamped to [0, clamp] (default 1: \
-              the displayed range; 0 = no clamping)",
-    },
-    ParamDoc {
-        name: "accel",
-        doc: "accelerator name (default: the scene's)",
-    },
-    ParamDoc {
-        name: "reference",
-        doc: "converged reference image (.exr/.png), relative to the manifest; \
-              default: rendered once and cached in the output folder",
-    },
-    ParamDoc {
-        name: "reference_spp",
-        doc: "samples per pixel of a generated reference (default 1024)",
-    },
-    ParamDoc {
-        name: "reference_integrator",
-        doc: "integrator of a generated reference (default `path:64`)",
-    },
-];
+/// The parameters of a run.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GiQualityParams {
+    /// Scene file, relative to the manifest's folder.
+    pub scene: String,
+    /// The integrator measured.
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub integrator: Option<IntegratorKind>,
+    /// Samples per pixel, uniform random.
+    #[serde(default)]
+    pub spp: Option<InRange<1, 4096>>,
+    /// Pixel sampler, instead of `spp`.
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub sampler: Option<Sampler>,
+    /// Image size.
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub resolution: Option<Resolution>,
+    /// Independent frames.
+    #[serde(default)]
+    pub frames: Option<InRange<2, 100_000>>,
+    /// Seed of the first frame.
+    #[serde(default)]
+    pub seed: Option<InRange<0, { 1 << 40 }>>,
+    /// Upper clamp of values before the error metrics (0: none).
+    #[serde(default)]
+    pub clamp: Option<f64>,
+    /// Accelerator.
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub accel: Option<AccelKind>,
+    /// A converged reference image, relative to the manifest's folder.
+    #[serde(default)]
+    pub reference: Option<String>,
+    /// Samples per pixel of a generated reference.
+    #[serde(default)]
+    pub reference_spp: Option<InRange<1, { 1 << 20 }>>,
+    /// Integrator of a generated reference.
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub reference_integrator: Option<IntegratorKind>,
+}
 
-const DEFAULT_FRAMES: i64 = 8;
-const DEFAULT_REFERENCE_SPP: i64 = 1024;
+typed_params!(
+    GiQualityParams,
+    [
+        ParamDoc {
+            name: "scene",
+            doc: "scene file (TOML), relative to the manifest's folder; required",
+        },
+        ParamDoc {
+            name: "integrator",
+            doc: "`direct`, `path:K` or `whitted` (default `path:4`)",
+        },
+        ParamDoc {
+            name: "spp",
+            doc: "samples per pixel, uniform random (`random:N`); or give `sampler`",
+        },
+        ParamDoc {
+            name: "sampler",
+            doc: "pixel sampler as `raylab render --sampler` (default: the scene's)",
+        },
+        ParamDoc {
+            name: "resolution",
+            doc: "image size as \"WxH\" (default: the scene's)",
+        },
+        ParamDoc {
+            name: "frames",
+            doc: "independent frames (seeds seed, seed+1, …), at least 2 (default 8)",
+        },
+        ParamDoc {
+            name: "seed",
+            doc: "seed of the first frame (default 0)",
+        },
+        ParamDoc {
+            name: "clamp",
+            doc: "errors are measured on values clamped to [0, clamp] (default 1: \
+                  the displayed range; 0 = no clamping)",
+        },
+        ParamDoc {
+            name: "accel",
+            doc: "accelerator name (default: the scene's)",
+        },
+        ParamDoc {
+            name: "reference",
+            doc: "converged reference image (.exr/.png), relative to the manifest; \
+                  default: rendered once and cached in the output folder",
+        },
+        ParamDoc {
+            name: "reference_spp",
+            doc: "samples per pixel of a generated reference (default 1024)",
+        },
+        ParamDoc {
+            name: "reference_integrator",
+            doc: "integrator of a generated reference (default `path:64`)",
+        },
+    ]
+);
+
+const DEFAULT_FRAMES: u32 = 8;
+const DEFAULT_REFERENCE_SPP: u32 = 1024;
 const DEFAULT_REFERENCE_INTEGRATOR: &str = "path:64";
 /// The generated reference's seed: far from any frame's `seed + f`.
 const REFERENCE_SEED: u64 = 1 << 62;
 
-/// A run's parameters, parsed.
-struct Config {
+/// A run's parameters, checked.
+pub struct Config {
     scene: PathBuf,
     integrator: IntegratorKind,
     overrides: Overrides,
@@ -148,6 +194,7 @@ struct Config {
     reference: Reference,
 }
 
+/// Where the reference image comes from.
 enum Reference {
     File(PathBuf),
     Generate {
@@ -156,89 +203,51 @@ enum Reference {
     },
 }
 
-fn integrator_param(
-    run: &RunPoint,
-    name: &str,
-    default: &str,
-) -> Result<IntegratorKind, ParamError> {
-    IntegratorKind::parse(str_param(run, name)?.unwrap_or(default))
-        .map_err(|e| ParamError::new(name, e))
-}
-
-fn config(run: &RunPoint, base_dir: &Path) -> Result<Config, ParamError> {
-    let scene = scene_param(run, base_dir)?;
-    let integrator = integrator_param(run, "integrator", "path:4")?;
-    let sampler = str_param(run, "sampler")?
-        .map(Sampler::parse)
-        .transpose()
-        .map_err(|e| ParamError::new("sampler", e))?;
-    let spp = int_param(run, "spp", 1, 4096)?;
-    let sampler = match (sampler, spp) {
-        (Some(_), Some(_)) => {
-            return Err(ParamError::new("spp", "give `spp` or `sampler`, not both"));
-        }
-        (Some(s), None) => Some(s),
-        (None, Some(n)) => Some(Sampler::Random { n: n as u32 }),
-        (None, None) => None,
-    };
-    let accel = str_param(run, "accel")?
-        .map(str::parse::<AccelKind>)
-        .transpose()
-        .map_err(|e| ParamError::new("accel", e))?;
-    let (width, height) = match str_param(run, "resolution")? {
-        None => (None, None),
-        Some(res) => {
-            let (w, h) = parse_resolution(res)
-                .ok_or_else(|| ParamError::new("resolution", format!("`{res}` is not \"WxH\"")))?;
-            (Some(w), Some(h))
-        }
-    };
-    let frames = int_param(run, "frames", 2, 100_000)?.unwrap_or(DEFAULT_FRAMES) as u32;
-    let seed = int_param(run, "seed", 0, 1 << 40)?.unwrap_or(0) as u64;
-    // 0 measures raw values.
-    let clamp = match float_param(run, "clamp", 0.0, f64::MAX)? {
-        None => Some(1.0),
-        Some(0.0) => None,
-        Some(c) => Some(c as f32),
-    };
-    let reference = match str_param(run, "reference")? {
-        Some(r) => {
-            let path = base_dir.join(r);
-            if !path.is_file() {
-                return Err(ParamError::new(
-                    "reference",
-                    format!("{}: no such image file", path.display()),
-                ));
-            }
-            Reference::File(path)
-        }
-        None => Reference::Generate {
-            integrator: integrator_param(
-                run,
-                "reference_integrator",
-                DEFAULT_REFERENCE_INTEGRATOR,
-            )?,
-            spp: int_param(run, "reference_spp", 1, 1 << 20)?.unwrap_or(DEFAULT_REFERENCE_SPP)
-                as u32,
-        },
-    };
-    Ok(Config {
-        scene,
-        integrator,
-        overrides: Overrides {
-            width,
-            height,
-            sampler,
-            filter: None,
-            accel,
-            max_depth: None,
-            seed: None,
-        },
-        frames,
-        seed,
-        clamp,
-        reference,
-    })
+/// One row: an integrator's time and error against the reference.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct GiQualityRow {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Frames rendered.
+    pub frames: usize,
+    /// Worker threads rendering.
+    pub threads: usize,
+    /// Median time per frame.
+    pub time_per_frame_s: Secs,
+    /// Preparing the integrator (the flood-fill cache).
+    pub setup_s: Secs,
+    /// Shortest frame.
+    pub time_min_s: Secs,
+    /// Longest frame.
+    pub time_max_s: Secs,
+    /// Mean MSE of the frames.
+    pub mse: Sci<6>,
+    /// Mean relative MSE.
+    pub rel_mse: Sci<6>,
+    /// Mean ꟻLIP error.
+    pub flip: Fixed<6>,
+    /// MSE of the frames' mean.
+    pub mse_of_mean: Sci<6>,
+    /// Estimated squared bias.
+    pub bias2: Sci<6>,
+    /// Estimated variance of one frame.
+    pub variance: Sci<6>,
+    /// The film's own variance estimate.
+    pub pixel_variance: Sci<6>,
+    /// The reference's own noise.
+    pub reference_variance: Sci<6>,
+    /// Rays per pixel.
+    pub rays_per_pixel: Fixed<4>,
+    /// Path rays per pixel.
+    pub path_rays_per_pixel: Fixed<4>,
+    /// Shadow rays per pixel.
+    pub shadow_rays_per_pixel: Fixed<4>,
+    /// The reference image.
+    pub reference: String,
 }
 
 /// The reference image and the mean variance of its pixel values (0 when
@@ -279,7 +288,7 @@ fn reference_image(
 }
 
 /// Mean over pixels and channels of variance/count, from an EXR written by
-/// [`crate::film::Film::write_exr`]; 0 for other images.
+/// [`crate::io::image::write_film_exr`]; 0 for other images.
 fn reference_variance(path: &Path) -> f64 {
     let Ok(exr) = read_exr_channels(path) else {
         return 0.0;
@@ -315,49 +324,71 @@ fn coloured_map(map: &ndarray::Array2<f32>) -> LinearImage {
 }
 
 impl Study for GiQuality {
-    fn kind(&self) -> &'static str {
-        "gi_quality"
+    type Params = GiQualityParams;
+    type Config = Config;
+    type Row = GiQualityRow;
+
+    fn configure(&self, p: GiQualityParams, base_dir: &Path) -> Result<Config, ParamError> {
+        let scene = scene_file(base_dir, &p.scene)?;
+        let integrator = or_default(p.integrator, "integrator", "path:4")?;
+        let sampler = match (p.sampler, p.spp) {
+            (Some(_), Some(_)) => {
+                return Err(ParamError::new("spp", "give `spp` or `sampler`, not both"));
+            }
+            (Some(s), None) => Some(s),
+            (None, Some(n)) => Some(Sampler::Random { n: n.get() as u32 }),
+            (None, None) => None,
+        };
+        // 0 measures raw values.
+        let clamp = match p.clamp {
+            None => Some(1.0),
+            Some(c) if c < 0.0 => {
+                return Err(ParamError::new(
+                    "clamp",
+                    format!("must be a number of at least 0, got {c}"),
+                ))
+            }
+            Some(0.0) => None,
+            Some(c) => Some(c as f32),
+        };
+        let reference = match &p.reference {
+            Some(r) => Reference::File(existing_file(base_dir, "reference", r, "image")?),
+            None => Reference::Generate {
+                integrator: or_default(
+                    p.reference_integrator,
+                    "reference_integrator",
+                    DEFAULT_REFERENCE_INTEGRATOR,
+                )?,
+                spp: p
+                    .reference_spp
+                    .map_or(DEFAULT_REFERENCE_SPP, |n| n.get() as u32),
+            },
+        };
+        Ok(Config {
+            scene,
+            integrator,
+            overrides: Overrides {
+                width: p.resolution.map(|r| r.width),
+                height: p.resolution.map(|r| r.height),
+                sampler,
+                filter: None,
+                accel: p.accel,
+                max_depth: None,
+                seed: None,
+            },
+            frames: p.frames.map_or(DEFAULT_FRAMES, |f| f.get() as u32),
+            seed: p.seed.map_or(0, |s| s.get() as u64),
+            clamp,
+            reference,
+        })
     }
 
-    fn parameters(&self) -> &'static [ParamDoc] {
-        PARAMETERS
-    }
-
-    fn columns(&self, _settings: &StudySettings) -> Vec<String> {
-        [
-            "width",
-            "height",
-            "spp",
-            "frames",
-            "threads",
-            "time_per_frame_s",
-            "setup_s",
-            "time_min_s",
-            "time_max_s",
-            "mse",
-            "rel_mse",
-            "flip",
-            "mse_of_mean",
-            "bias2",
-            "variance",
-            "pixel_variance",
-            "reference_variance",
-            "rays_per_pixel",
-            "path_rays_per_pixel",
-            "shadow_rays_per_pixel",
-            "reference",
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect()
-    }
-
-    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), ParamError> {
-        config(run, base_dir).map(|_| ())
-    }
-
-    fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Row> {
-        let cfg = config(run, ctx.base_dir).map_err(ParamError::into_error)?;
+    fn run(
+        &self,
+        cfg: Config,
+        _run: &RunPoint,
+        ctx: &RunContext<'_>,
+    ) -> anyhow::Result<GiQualityRow> {
         let mut scene = load_scene(&cfg.scene, &cfg.overrides)?;
         let clamped = |img: LinearImage| match cfg.clamp {
             Some(hi) => img.mapv(|v| v.clamp(0.0, hi)),
@@ -465,43 +496,34 @@ impl Study for GiQuality {
             .unwrap_or(&ref_path)
             .display()
             .to_string();
-        let e = |v: f64| format!("{v:.6e}");
         let times_sorted = {
             let mut t = times.clone();
             t.sort_by(f64::total_cmp);
             t
         };
-        Ok(vec![
-            ("width".into(), w.to_string()),
-            ("height".into(), h.to_string()),
-            ("spp".into(), spp.to_string()),
-            ("frames".into(), frames.to_string()),
-            ("threads".into(), rayon::current_num_threads().to_string()),
-            ("time_per_frame_s".into(), seconds_cell(median(&times))),
-            ("setup_s".into(), seconds_cell(setup_s)),
-            ("time_min_s".into(), seconds_cell(times_sorted[0])),
-            ("time_max_s".into(), seconds_cell(times_sorted[frames - 1])),
-            ("mse".into(), e(mse_frames)),
-            ("rel_mse".into(), e(sum_rel / nf)),
-            ("flip".into(), format!("{:.6}", sum_flip / nf)),
-            ("mse_of_mean".into(), e(mse_of_mean)),
-            ("bias2".into(), e(bias2)),
-            ("variance".into(), e(variance)),
-            ("pixel_variance".into(), e(sum_pixvar / nf)),
-            ("reference_variance".into(), e(ref_var)),
-            (
-                "rays_per_pixel".into(),
-                format!("{:.4}", counters.rays() as f64 / pixels),
-            ),
-            (
-                "path_rays_per_pixel".into(),
-                format!("{:.4}", counters.path_rays as f64 / pixels),
-            ),
-            (
-                "shadow_rays_per_pixel".into(),
-                format!("{:.4}", counters.shadow_rays as f64 / pixels),
-            ),
-            ("reference".into(), ref_cell),
-        ])
+        let per_pixel = |n: u64| Fixed(n as f64 / pixels);
+        Ok(GiQualityRow {
+            width: w,
+            height: h,
+            spp,
+            frames,
+            threads: rayon::current_num_threads(),
+            time_per_frame_s: Secs(median(&times)),
+            setup_s: Secs(setup_s),
+            time_min_s: Secs(times_sorted[0]),
+            time_max_s: Secs(times_sorted[frames - 1]),
+            mse: Sci(mse_frames),
+            rel_mse: Sci(sum_rel / nf),
+            flip: Fixed(sum_flip / nf),
+            mse_of_mean: Sci(mse_of_mean),
+            bias2: Sci(bias2),
+            variance: Sci(variance),
+            pixel_variance: Sci(sum_pixvar / nf),
+            reference_variance: Sci(ref_var),
+            rays_per_pixel: per_pixel(counters.rays()),
+            path_rays_per_pixel: per_pixel(counters.path_rays),
+            shadow_rays_per_pixel: per_pixel(counters.shadow_rays),
+            reference: ref_cell,
+        })
     }
 }
