@@ -45,8 +45,9 @@ enum Command {
     ///
     /// Runs every point of the sweeps of a manifest (analysis/NAME.toml)
     /// with a progress bar, appending one row per run to data.csv, and
-    /// writes meta.json and the manifest's figures (PNG + SVG). The manifest format is described in the README ("Running an
-    /// experiment"); the study kinds are listed below (`--help`).
+    /// writes meta.json and the manifest's figures (PNG + SVG). The manifest
+    /// format is described in book/src/reference/manifests.md; the study
+    /// kinds are listed below (`--help`).
     /// Build with --release: timings of a debug build mean little, and raylab
     /// warns when it is one.
     #[command(after_long_help = experiment::study::kinds_help())]

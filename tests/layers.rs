@@ -71,7 +71,9 @@ fn named_modules(code: &str, group: &mut Option<usize>, out: &mut Vec<String>) {
     let chars: Vec<char> = code.chars().collect();
     let is_ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
     let ident_at = |i: usize| -> (String, usize) {
-        let end = (i..chars.len()).find(|&k| !is_ident(chars[k])).unwrap_or(chars.len());
+        let end = (i..chars.len())
+            .find(|&k| !is_ident(chars[k]))
+            .unwrap_or(chars.len());
         (chars[i..end].iter().collect(), end)
     };
     let mut i = 0;

@@ -1,8 +1,8 @@
 //! The one list of study kinds, [`KINDS`]: the manifest reader looks a
 //! `kind` up here ([`find`]), `raylab experiment --help` lists it
 //! ([`kinds_help`]), and the tests below hold the docs to it (every kind's
-//! parameters documented, its example manifests of its kind, the README
-//! describing it).
+//! parameters documented, its example manifests of its kind, the book's
+//! reference page describing it).
 
 use super::{aa_images, aa_patterns, accel_cost, accel_speed, floodfill, gi_quality, render_cost};
 use super::{DynStudy, ParamDoc};
@@ -190,11 +190,13 @@ mod tests {
     #[test]
     fn examples_are_manifests_of_their_kind_and_the_docs_describe_each_kind() {
         let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
-        let readme = std::fs::read_to_string(repo.join("README.md")).unwrap();
+        let reference = repo.join("book/src/reference/studies.md");
+        let docs = std::fs::read_to_string(&reference).unwrap();
         for k in KINDS {
             assert!(
-                readme.contains(&format!("`{}`", k.name)),
-                "README: {}",
+                docs.contains(&format!("`{}`", k.name)),
+                "{} does not describe the study kind `{}`",
+                reference.display(),
                 k.name
             );
             for e in k.examples {
