@@ -9,7 +9,9 @@
 //! ```no_run
 //! # fn demo(scene: &raylab::scene::Scene) -> Result<(), String> {
 //! use raylab::gi::{FloodFill, FloodFillConfig, GridSpec, Lookup, Threads};
-//! let mut cache = FloodFill::from_scene(scene, &GridSpec::new(64), FloodFillConfig::default())?;
+//! use raylab::gi::DEFAULT_WALL_LIGHT_SAMPLES;
+//! let (spec, config) = (GridSpec::new(64), FloodFillConfig::default());
+//! let mut cache = FloodFill::from_scene(scene, &spec, config, DEFAULT_WALL_LIGHT_SAMPLES)?;
 //! for _ in 0..200 {
 //!     cache.step(Threads::Pool);
 //! }
