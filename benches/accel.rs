@@ -140,8 +140,8 @@ fn main() {
             }
         );
         println!(
-            "  {:<20} {:>8} {:>8} {:>8} {:>8} {:>9} {:>7}  vs Embree (p / s / d / r)",
-            "accelerator", "primary", "shadow", "diffuse", "random", "build ms", "vs sah"
+            "  {:<20} {:>8} {:>8} {:>8} {:>8} {:>9} {:>7}  vs Embree (c / s / p / r)",
+            "accelerator", "camera", "shadow", "path", "random", "build ms", "vs sah"
         );
         let bounded: Vec<u32> = (0..scene.prims.len() as u32)
             .filter(|&i| scene.prims[i as usize].bounds().is_some())

@@ -2,7 +2,7 @@
 //! must agree with, and S3's "basic tracer".
 
 use super::Accel;
-use crate::shape::{PreparedRay, PrimHit, PrimSource, Primitive};
+use crate::shape::{Intersect, PreparedRay, PrimHit, Primitive};
 use crate::stats::Stats;
 
 #[derive(Clone, Debug, Default)]
@@ -30,8 +30,7 @@ pub fn closest_in<S: Stats>(
     stats: &mut S,
 ) {
     closest_of(
-        prims,
-        ids.iter().map(|&id| (id, id as usize)),
+        ids.iter().map(|&id| (id, &prims[id as usize])),
         ray,
         t_max,
         best,
@@ -48,25 +47,24 @@ pub fn any_in<S: Stats>(
     t_max: f32,
     stats: &mut S,
 ) -> bool {
-    any_of(prims, ids.iter().map(|&id| id as usize), ray, t_max, stats)
+    any_of(ids.iter().map(|&id| &prims[id as usize]), ray, t_max, stats)
 }
 
-/// The closest-hit loop every accelerator's leaves run: test the
-/// `(id, slot)` candidates of `source` in order, shrinking `t_max` as hits
-/// are found and recording `(id, hit)` in `best`. Brute force passes scene
-/// indices as slots; the BVH's leaves pass slots of their leaf-ordered
-/// [`crate::shape::PrimArrays`].
+/// The closest-hit loop every accelerator's leaves run: test the `(id,
+/// primitive)` candidates in order, shrinking `t_max` as hits are found and
+/// recording `(id, hit)` in `best`. Brute force passes the scene's
+/// primitives; the BVH's leaves pass their leaf-ordered plain arrays
+/// ([`crate::shape::PrimArrays`]: a triangle slice, or slots).
 #[inline(always)]
-pub fn closest_of<P: PrimSource + ?Sized, S: Stats>(
-    source: &P,
-    candidates: impl Iterator<Item = (u32, usize)>,
+pub fn closest_of<T: Intersect, S: Stats>(
+    candidates: impl Iterator<Item = (u32, T)>,
     ray: &PreparedRay,
     t_max: &mut f32,
     best: &mut Option<(u32, PrimHit)>,
     stats: &mut S,
 ) {
-    for (id, slot) in candidates {
-        if let Some(h) = source.test(slot, ray, *t_max, stats) {
+    for (id, p) in candidates {
+        if let Some(h) = p.test(ray, *t_max, stats) {
             stats.primitive_hit();
             *t_max = h.t;
             *best = Some((id, h));
@@ -74,17 +72,16 @@ pub fn closest_of<P: PrimSource + ?Sized, S: Stats>(
     }
 }
 
-/// The any-hit loop: whether a candidate slot of `source` is hit in
-/// (0, t_max), stopping at the first.
+/// The any-hit loop: whether a candidate is hit in (0, t_max), stopping
+/// at the first.
 #[inline(always)]
-pub fn any_of<P: PrimSource + ?Sized, S: Stats>(
-    source: &P,
-    mut slots: impl Iterator<Item = usize>,
+pub fn any_of<T: Intersect, S: Stats>(
+    mut candidates: impl Iterator<Item = T>,
     ray: &PreparedRay,
     t_max: f32,
     stats: &mut S,
 ) -> bool {
-    let hit = slots.any(|slot| source.test(slot, ray, t_max, stats).is_some());
+    let hit = candidates.any(|p| p.test(ray, t_max, stats).is_some());
     if hit {
         stats.primitive_hit();
     }

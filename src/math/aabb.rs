@@ -111,15 +111,26 @@ pub fn slab4(
 ) -> (Vec4, u32) {
     let o = origin.to_array();
     let inv = inv_dir.to_array();
+    let dist = |planes: &[Vec4; 3]| -> [Vec4; 3] {
+        std::array::from_fn(|a| (planes[a] - Vec4::splat(o[a])) * Vec4::splat(inv[a]))
+    };
+    slab4_distances(&dist(lo), &dist(hi), t_max)
+}
+
+/// The interval logic of [`slab4`] from the plane distances themselves,
+/// t0 = (lo − o)/d and t1 = (hi − o)/d per axis: a caller that gets both
+/// planes of a pair of boxes from one set of lanes (the binary BVH's packed
+/// siblings) computes the distances once and swizzles them.
+#[inline(always)]
+pub fn slab4_distances(t0: &[Vec4; 3], t1: &[Vec4; 3], t_max: f32) -> (Vec4, u32) {
     let mut enter = Vec4::NEG_INFINITY;
     let mut exit = Vec4::INFINITY;
     for a in 0..3 {
-        let (os, is) = (Vec4::splat(o[a]), Vec4::splat(inv[a]));
-        let t0 = (lo[a] - os) * is;
-        let t1 = (hi[a] - os) * is;
-        let free: BVec4A = t0.is_nan_mask() | t1.is_nan_mask();
-        enter = enter.max(Vec4::select(free, Vec4::NEG_INFINITY, t0.min(t1)));
-        exit = exit.min(Vec4::select(free, Vec4::INFINITY, t0.max(t1)));
+        // As in `Aabb::slab`: a NaN (parallel ray starting on a plane)
+        // frees the axis.
+        let free: BVec4A = t0[a].is_nan_mask() | t1[a].is_nan_mask();
+        enter = enter.max(Vec4::select(free, Vec4::NEG_INFINITY, t0[a].min(t1[a])));
+        exit = exit.min(Vec4::select(free, Vec4::INFINITY, t0[a].max(t1[a])));
     }
     let exit = exit * SLAB_EXIT_SCALE;
     let ok = enter.cmple(exit) & exit.cmpge(Vec4::ZERO) & enter.cmple(Vec4::splat(t_max));

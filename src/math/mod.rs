@@ -8,7 +8,7 @@ pub mod real;
 pub mod rng;
 pub mod sampling;
 
-pub use aabb::{slab4, Aabb, SLAB_EXIT_SCALE};
+pub use aabb::{slab4, slab4_distances, Aabb, SLAB_EXIT_SCALE};
 pub use real::{Real, V3};
 pub use rng::SplitMix64;
 pub use sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle};

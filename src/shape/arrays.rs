@@ -5,7 +5,7 @@
 //! compile time below), with no enums carrying payloads and no pointers.
 //!
 //! [`Shape`] remains the type scenes are built from; [`PrimArrays::new`]
-//! turns a list of primitives into arrays.
+//! turns a list of primitives into arrays; [`Slot`] tests one of them.
 
 use super::{
     Ellipsoid, Intersect, Plane, PreparedRay, PrimHit, Primitive, Shape, Sphere, Triangle,
@@ -152,50 +152,40 @@ impl PrimArrays {
     }
 }
 
-/// Something whose primitives can be tested by slot: the scene's list of
-/// [`Primitive`]s (slot = primitive index) or [`PrimArrays`]. The
-/// accelerators' leaf loops ([`crate::accel::brute`]) are written once over
-/// it.
-pub trait PrimSource {
-    /// Slot `slot`'s primitive against the ray ([`Intersect::test`]).
-    fn test<S: Stats>(
-        &self,
-        slot: usize,
-        r: &PreparedRay,
-        t_max: f32,
-        stats: &mut S,
-    ) -> Option<PrimHit>;
-}
-
-impl PrimSource for [Primitive] {
+impl PrimArrays {
+    /// The triangles by slot, when every slot holds a triangle (a mesh
+    /// scene's leaves): then slot i is `triangles[i]`, and a leaf loop can
+    /// run over the slice with no reference to decode.
     #[inline(always)]
-    fn test<S: Stats>(
-        &self,
-        slot: usize,
-        r: &PreparedRay,
-        t_max: f32,
-        stats: &mut S,
-    ) -> Option<PrimHit> {
-        self[slot].intersect(r, t_max, stats)
+    pub fn triangles_only(&self) -> Option<&[Triangle]> {
+        (self.triangles.len() == self.refs.len()).then_some(self.triangles.as_slice())
+    }
+
+    /// Slot `slot` as something to test.
+    #[inline(always)]
+    pub fn slot(&self, slot: usize) -> Slot<'_> {
+        Slot { arrays: self, slot }
     }
 }
 
-impl PrimSource for PrimArrays {
+/// One slot of a [`PrimArrays`], tested by its kind's test.
+#[derive(Clone, Copy, Debug)]
+pub struct Slot<'a> {
+    arrays: &'a PrimArrays,
+    slot: usize,
+}
+
+impl Intersect for Slot<'_> {
     #[inline(always)]
-    fn test<S: Stats>(
-        &self,
-        slot: usize,
-        r: &PreparedRay,
-        t_max: f32,
-        stats: &mut S,
-    ) -> Option<PrimHit> {
-        let p = self.refs[slot];
+    fn test<S: Stats>(&self, r: &PreparedRay, t_max: f32, stats: &mut S) -> Option<PrimHit> {
+        let a = self.arrays;
+        let p = a.refs[self.slot];
         let i = p.index();
         match p.kind() {
-            PrimKind::Triangle => self.triangles[i].test(r, t_max, stats),
-            PrimKind::Sphere => self.spheres[i].test(r, t_max, stats),
-            PrimKind::Ellipsoid => self.ellipsoids[i].test(r, t_max, stats),
-            PrimKind::Plane => self.planes[i].test(r, t_max, stats),
+            PrimKind::Triangle => a.triangles[i].test(r, t_max, stats),
+            PrimKind::Sphere => a.spheres[i].test(r, t_max, stats),
+            PrimKind::Ellipsoid => a.ellipsoids[i].test(r, t_max, stats),
+            PrimKind::Plane => a.planes[i].test(r, t_max, stats),
         }
     }
 }
@@ -234,6 +224,9 @@ mod tests {
         .collect();
         let a = PrimArrays::new(&prims);
         assert_eq!(a.len(), 4);
+        assert!(a.triangles_only().is_none());
+        let tris = PrimArrays::new(&prims[1..2]);
+        assert_eq!(tris.triangles_only(), Some(&tris.triangles[..]));
         let bytes: &[u8] = bytemuck::cast_slice(&a.triangles);
         let back: &[Triangle] = bytemuck::cast_slice(bytes);
         assert_eq!(back, a.triangles.as_slice());
@@ -242,7 +235,7 @@ mod tests {
             assert_eq!(p.bounds(), a.bounds(slot));
             let (mut c1, mut c2) = (Counters::default(), Counters::default());
             let want = p.intersect(&ray, 100.0, &mut c1);
-            let got = a.test(slot, &ray, 100.0, &mut c2);
+            let got = a.slot(slot).test(&ray, 100.0, &mut c2);
             assert!(want.is_some(), "slot {slot} should be hit");
             assert_eq!(want, got, "slot {slot}");
             assert_eq!(c1, c2, "slot {slot}");

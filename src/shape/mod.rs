@@ -10,7 +10,7 @@ pub mod plane;
 pub mod sphere;
 pub mod triangle;
 
-pub use arrays::{PrimArrays, PrimKind, PrimRef, PrimSource};
+pub use arrays::{PrimArrays, PrimKind, PrimRef, Slot};
 pub use ellipsoid::Ellipsoid;
 pub use plane::Plane;
 pub use sphere::Sphere;
@@ -181,6 +181,20 @@ impl Intersect for Triangle {
     fn test<S: Stats>(&self, r: &PreparedRay, t_max: f32, stats: &mut S) -> Option<PrimHit> {
         stats.triangle_test();
         self.intersect(r, t_max)
+    }
+}
+
+impl Intersect for Primitive {
+    #[inline(always)]
+    fn test<S: Stats>(&self, r: &PreparedRay, t_max: f32, stats: &mut S) -> Option<PrimHit> {
+        self.intersect(r, t_max, stats)
+    }
+}
+
+impl<T: Intersect> Intersect for &T {
+    #[inline(always)]
+    fn test<S: Stats>(&self, r: &PreparedRay, t_max: f32, stats: &mut S) -> Option<PrimHit> {
+        (**self).test(r, t_max, stats)
     }
 }
 

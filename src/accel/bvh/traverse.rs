@@ -115,12 +115,25 @@ pub(super) fn test_leaf<S: Stats, const ANY_HIT: bool>(
     best: &mut Option<(u32, PrimHit)>,
     stats: &mut S,
 ) -> bool {
-    if ANY_HIT {
-        any_of(leaf, range, ray, *t_max, stats)
-    } else {
-        let ids = indices[range.clone()].iter().copied();
-        closest_of(leaf, ids.zip(range), ray, t_max, best, stats);
-        false
+    let ids = indices[range.clone()].iter().copied();
+    // A mesh's leaves hold only triangles: loop over the slice itself.
+    match leaf.triangles_only() {
+        Some(tris) if ANY_HIT => any_of(tris[range].iter(), ray, *t_max, stats),
+        Some(tris) => {
+            closest_of(ids.zip(&tris[range]), ray, t_max, best, stats);
+            false
+        }
+        None if ANY_HIT => any_of(range.map(|s| leaf.slot(s)), ray, *t_max, stats),
+        None => {
+            closest_of(
+                ids.zip(range.map(|s| leaf.slot(s))),
+                ray,
+                t_max,
+                best,
+                stats,
+            );
+            false
+        }
     }
 }
 

@@ -11,7 +11,7 @@
 //! by [`FIT_PAD`] and the ray tests allow for their own rounding (the box
 //! after Ize, the quadrics by a per-ray margin), see each test.
 
-use crate::math::{slab4, Aabb, Ray, Vec3};
+use crate::math::{slab4_distances, Aabb, Ray, Vec3};
 use crate::shape::sphere::Sphere;
 use crate::shape::PreparedRay;
 use crate::stats::Stats;
@@ -113,10 +113,12 @@ impl BoundingVolume for Aabb {
         }
     }
 
-    /// The slab test for two boxes at once: [`slab4`] with lanes [left,
-    /// right, left, right] and the planes of lanes 2 and 3 swapped (they
-    /// repeat the two boxes and are ignored), so one 4-wide test serves the
-    /// pair, bit-identical to [`Aabb::slab`] on each box.
+    /// The slab test for two boxes at once: per axis one 4-wide subtract
+    /// and multiply give the distances to [left min, right min, left max,
+    /// right max]; with the halves swapped they are the other planes, and
+    /// [`slab4_distances`] (the interval logic of the one 4-wide slab test)
+    /// does the rest. Lanes 2 and 3 repeat the two boxes and are ignored.
+    /// Bit-identical to [`Aabb::slab`] on each box.
     #[inline]
     fn hit_pair<S: Stats>(
         p: &AabbPair,
@@ -126,9 +128,14 @@ impl BoundingVolume for Aabb {
     ) -> [Option<f32>; 2] {
         stats.box_test();
         stats.box_test();
-        let lo = [p.x, p.y, p.z];
-        let hi = [p.x.zwxy(), p.y.zwxy(), p.z.zwxy()];
-        let (enter, bits) = slab4(&lo, &hi, ray.ray.origin, ray.inv_dir, t_max);
+        let (o, inv) = (ray.ray.origin, ray.inv_dir);
+        let t = [
+            (p.x - Vec4::splat(o.x)) * Vec4::splat(inv.x),
+            (p.y - Vec4::splat(o.y)) * Vec4::splat(inv.y),
+            (p.z - Vec4::splat(o.z)) * Vec4::splat(inv.z),
+        ];
+        let swapped = t.map(|v| v.zwxy());
+        let (enter, bits) = slab4_distances(&t, &swapped, t_max);
         [
             (bits & 1 != 0).then_some(enter.x),
             (bits & 2 != 0).then_some(enter.y),
