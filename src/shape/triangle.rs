@@ -40,7 +40,7 @@ impl Triangle {
     /// Hit with `t` in (0, t_max), reporting barycentrics `u`, `v` of
     /// vertices 1 and 2 (the hit point is (1−u−v)·p0 + u·p1 + v·p2, Embree's
     /// convention). Both faces are hit (no culling).
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, r: &PreparedRay, t_max: f32) -> Option<PrimHit> {
         let (kx, ky, kz) = (r.kx, r.ky, r.kz);
         let s = r.shear;
