@@ -619,7 +619,7 @@ fn embree_speed_manifest_measures_both_sides_on_the_same_rays() {
             row[i].parse().unwrap()
         };
         assert_eq!(get("triangles"), 19536.0);
-        for kind in ["primary", "shadow", "diffuse", "random"] {
+        for kind in ["camera", "shadow", "path", "random"] {
             let rays = get(&format!("{kind}_rays"));
             assert!(rays > 1000.0, "{kind}: {rays} rays");
             assert!(get(&format!("{kind}_hit_disagree")) <= rays * 1e-3);
