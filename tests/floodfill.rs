@@ -261,12 +261,11 @@ fn light_is_never_stored_in_solid_voxels() {
     }
 }
 
-#[test]
-fn point_light_injection_and_lookups() {
-    // A grey floor (albedo 0.5·0.8 = 0.4) under a point light 10 above
-    // the origin, no falloff, intensity 1. The box puts the floor y = 0 on
-    // the bottom face of a 4 × 4 × 4 grid of unit voxels.
-    let text = r#"
+/// A grey floor (the plane y = 0, albedo 0.5·0.8 = 0.4) seen from above,
+/// lit by one point light with the given fields.
+fn floor_scene(light: &str) -> raylab::scene::Scene {
+    let text = format!(
+        r#"
         [image]
         width = 8
         height = 8
@@ -282,16 +281,30 @@ fn point_light_injection_and_lookups() {
         normal = [0.0, 1.0, 0.0]
         material = "grey"
         [[light]]
-        position = [0.0, 10.0, 0.0]
-    "#;
-    let scene = parse_scene(text, Path::new("floor.toml"), &Overrides::default()).unwrap();
-    let spec = GridSpec {
+        {light}
+    "#
+    );
+    parse_scene(&text, Path::new("floor.toml"), &Overrides::default()).unwrap()
+}
+
+/// A 4 × 4 × 4 grid of unit voxels whose bottom face is the floor y = 0.
+fn floor_grid() -> GridSpec {
+    GridSpec {
         resolution: 4,
         bounds: Some(Aabb {
             min: Vec3::new(-2.0, 0.0, -2.0),
             max: Vec3::new(2.0, 4.0, 2.0),
         }),
-    };
+    }
+}
+
+#[test]
+fn point_light_injection_and_lookups() {
+    // A grey floor (albedo 0.5·0.8 = 0.4) under a point light 10 above
+    // the origin, no falloff, intensity 1. The box puts the floor y = 0 on
+    // the bottom face of a 4 × 4 × 4 grid of unit voxels.
+    let scene = floor_scene("position = [0.0, 10.0, 0.0]");
+    let spec = floor_grid();
     let grid = VoxelGrid::from_scene(&scene, &spec).unwrap();
     // The plane touches only the bottom layer.
     for ((_, y, _), k) in grid.kind.indexed_iter() {
@@ -516,40 +529,12 @@ fn study_and_render_mode_build_the_same_cornell_cache() {
 /// Whitted integrator sees the light.
 #[test]
 fn whitted_only_lights_do_not_light_the_cache() {
-    let text = |flag: bool| {
-        format!(
-            r#"
-        [image]
-        width = 8
-        height = 8
-        [camera]
-        eye = [0.0, 1.0, 5.0]
-        look_at = [0.0, 0.0, 0.0]
-        fov = 40.0
-        [materials.grey]
-        color = [0.8, 0.8, 0.8]
-        diffuse = 0.5
-        [[plane]]
-        point = [0.0, 0.0, 0.0]
-        normal = [0.0, 1.0, 0.0]
-        material = "grey"
-        [[light]]
-        position = [0.0, 3.0, 0.0]
-        whitted_only = {flag}
-    "#
-        )
-    };
-    let spec = GridSpec {
-        resolution: 4,
-        bounds: Some(Aabb {
-            min: Vec3::new(-2.0, 0.0, -2.0),
-            max: Vec3::new(2.0, 4.0, 2.0),
-        }),
-    };
     let lit = |flag: bool| {
-        let scene =
-            parse_scene(&text(flag), Path::new("room.toml"), &Overrides::default()).unwrap();
-        let mut ff = FloodFill::from_scene(&scene, &spec, FloodFillConfig::default(), 4).unwrap();
+        let scene = floor_scene(&format!(
+            "position = [0.0, 3.0, 0.0]\nwhitted_only = {flag}"
+        ));
+        let mut ff =
+            FloodFill::from_scene(&scene, &floor_grid(), FloodFillConfig::default(), 4).unwrap();
         ff.step(Threads::One);
         let cache = ff
             .irradiance()
