@@ -118,18 +118,6 @@ impl PrimArrays {
         self.refs.is_empty()
     }
 
-    /// The shape in slot `slot`.
-    pub fn shape(&self, slot: usize) -> Shape {
-        let r = self.refs[slot];
-        let i = r.index();
-        match r.kind() {
-            PrimKind::Triangle => Shape::Triangle(self.triangles[i]),
-            PrimKind::Sphere => Shape::Sphere(self.spheres[i]),
-            PrimKind::Ellipsoid => Shape::Ellipsoid(self.ellipsoids[i]),
-            PrimKind::Plane => Shape::Plane(self.planes[i]),
-        }
-    }
-
     /// Bounds of slot `slot`'s primitive (`None` for a plane).
     pub fn bounds(&self, slot: usize) -> Option<Aabb> {
         let r = self.refs[slot];
