@@ -11,8 +11,79 @@
 //! the pixel; the pixel centre is (c + ½, r + ½). S2 counts rows from the
 //! bottom; image files count from the top, so row `y` of the file is
 //! r = nRows − y.
+//!
+//! The formulas are written once, over [`Real`], in [`Frame`]: the renders
+//! evaluate them on `f32`, the derivative code on dual numbers (the image's
+//! derivative with respect to the eye, the look-at point or the view angle).
 
-use crate::math::{Ray, Vec3};
+use crate::math::{Ray, RayR, Real, Vec3, V3};
+
+/// The camera's eye, basis and near-plane rectangle, as functions of the
+/// scene file's camera entries.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame<R> {
+    pub eye: V3<R>,
+    pub u: V3<R>,
+    pub v: V3<R>,
+    pub n: V3<R>,
+    pub near: R,
+    pub half_height: R,
+    pub half_width: R,
+}
+
+impl<R: Real> Frame<R> {
+    /// The frame of a camera at `eye` looking at `look_at` with vertical
+    /// view angle `fov_deg` (degrees); `None` when eye and target coincide
+    /// or `up` is parallel to the view (the caller has checked the
+    /// scalars' ranges).
+    pub fn new(
+        eye: V3<R>,
+        look_at: V3<R>,
+        up: V3<R>,
+        fov_deg: R,
+        aspect: R,
+        near: R,
+    ) -> Result<Self, CameraError> {
+        let unit = |v: V3<R>, e: CameraError| {
+            let rcp = 1.0 / v.value().length();
+            if rcp.is_finite() && rcp > 0.0 {
+                Ok(v.normalize())
+            } else {
+                Err(e)
+            }
+        };
+        let n = unit(eye - look_at, CameraError::EyeAtTarget)?;
+        let u = unit(up.cross(n), CameraError::UpParallel)?;
+        let v = n.cross(u);
+        let rad = R::from_f32(std::f32::consts::PI / 180.0);
+        let half_height = near * (R::from_f32(0.5) * (fov_deg * rad)).tan();
+        Ok(Self {
+            eye,
+            u,
+            v,
+            n,
+            near,
+            half_height,
+            half_width: half_height * aspect,
+        })
+    }
+
+    // ANCHOR: generate_ray
+    /// The ray through film position (x, y) in pixels of a `width` ×
+    /// `height` image, x to the right from the left edge, y down from the
+    /// top edge. The direction is unit length so that `t` is a distance.
+    #[inline]
+    pub fn ray(&self, x: f32, y: f32, width: u32, height: u32) -> RayR<R> {
+        let (w, h) = (self.half_width, self.half_height);
+        let two = R::from_f32(2.0);
+        let uc = -w + two * w * R::from_f32(x) / R::from_f32(width as f32);
+        let r = height as f32 - y;
+        let vr = -h + two * h * R::from_f32(r) / R::from_f32(height as f32);
+        let dir = self.n * -self.near + self.u * uc + self.v * vr;
+        RayR::new(self.eye, dir.normalize())
+    }
+    // ANCHOR_END: generate_ray
+}
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -73,39 +144,39 @@ impl Camera {
         if !(aspect > 0.0 && aspect.is_finite()) {
             return Err(CameraError::Aspect(aspect));
         }
-        let n = (eye - look_at)
-            .try_normalize()
-            .ok_or(CameraError::EyeAtTarget)?;
-        let u = up.cross(n).try_normalize().ok_or(CameraError::UpParallel)?;
-        let v = n.cross(u);
-        let half_height = near * (0.5 * fov_deg.to_radians()).tan();
+        let f = Frame::new(eye.into(), look_at.into(), up.into(), fov_deg, aspect, near)?;
         Ok(Self {
             eye,
-            u,
-            v,
-            n,
+            u: f.u.into(),
+            v: f.v.into(),
+            n: f.n.into(),
             near,
-            half_height,
-            half_width: half_height * aspect,
+            half_height: f.half_height,
+            half_width: f.half_width,
             width,
             height,
         })
     }
 
-    // ANCHOR: generate_ray
-    /// The ray through film position (x, y) in pixels, x to the right from
-    /// the left edge, y down from the top edge. The direction is unit length
-    /// so that `t` is a distance.
+    /// The camera's [`Frame`] in `f32`.
+    #[inline]
+    pub fn frame(&self) -> Frame<f32> {
+        Frame {
+            eye: self.eye.into(),
+            u: self.u.into(),
+            v: self.v.into(),
+            n: self.n.into(),
+            near: self.near,
+            half_height: self.half_height,
+            half_width: self.half_width,
+        }
+    }
+
+    /// The ray through film position (x, y) in pixels ([`Frame::ray`]).
     #[inline]
     pub fn generate_ray(&self, x: f32, y: f32) -> Ray {
-        let (w, h) = (self.half_width, self.half_height);
-        let uc = -w + 2.0 * w * x / self.width as f32;
-        let r = self.height as f32 - y;
-        let vr = -h + 2.0 * h * r / self.height as f32;
-        let dir = -self.near * self.n + uc * self.u + vr * self.v;
-        Ray::new(self.eye, dir.normalize())
+        self.frame().ray(x, y, self.width, self.height).value()
     }
-    // ANCHOR_END: generate_ray
 }
 
 #[cfg(test)]

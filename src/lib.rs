@@ -17,6 +17,7 @@
 pub mod accel;
 pub mod analysis;
 pub mod camera;
+pub mod diff;
 pub mod experiment;
 pub mod film;
 pub mod gi;

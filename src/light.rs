@@ -3,9 +3,9 @@
 //! primitives, gathered once per scene into [`AreaLights`] so the path
 //! tracer can sample them (next-event estimation).
 
-use crate::math::{luminance, uniform_sphere, uniform_triangle, Color, Vec3, V3};
+use crate::math::{luminance, Color, Real, Vec3, V3};
 use crate::shading::point_light_arriving;
-use crate::shape::{Primitive, Shape, Triangle};
+use crate::shape::{Primitive, Shape, ShapeR, Triangle};
 use glam::Vec2;
 
 /// How a point light's irradiance falls off with distance d.
@@ -89,34 +89,39 @@ impl EmitterShape {
         }
     }
 
+    /// The same geometry over [`Real`] (the formulas live there).
+    fn real(&self) -> ShapeR<f32> {
+        match *self {
+            Self::Triangle(t) => ShapeR::Triangle {
+                p: t.p.map(V3::from),
+            },
+            Self::Sphere { centre, radius } => ShapeR::Sphere {
+                centre: centre.into(),
+                radius,
+            },
+        }
+    }
+
     /// Surface area.
     pub fn area(&self) -> f32 {
-        match *self {
-            Self::Triangle(t) => t.area(),
-            Self::Sphere { radius, .. } => 2.0 * std::f32::consts::TAU * radius * radius,
-        }
+        self.real().area()
     }
 
     /// A uniformly distributed point on the surface and the unit normal
     /// there, from two uniform numbers in [0, 1).
     pub fn sample(&self, u: Vec2) -> (Vec3, Vec3) {
-        match *self {
-            Self::Triangle(t) => {
-                let [a, b, c] = t.p;
-                let (b1, b2) = uniform_triangle(u);
-                (a + b1 * (b - a) + b2 * (c - a), t.normal())
-            }
-            Self::Sphere { centre, radius } => {
-                let n = uniform_sphere(u);
-                (centre + radius * n, n)
-            }
-        }
+        let (p, n) = self.real().sample_point(u);
+        (p.into(), n.into())
     }
 }
 
 /// A point sampled on an area light.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AreaSample {
+    /// The primitive the point lies on.
+    pub prim: u32,
+    /// The two numbers that placed the point on it.
+    pub u: Vec2,
     pub point: Vec3,
     /// Unit surface normal at the point (either side: emission is two-sided).
     pub normal: Vec3,
@@ -124,6 +129,36 @@ pub struct AreaSample {
     /// Density of the point with respect to surface area (see
     /// [`AreaLights`]).
     pub pdf_area: f32,
+}
+
+/// [`AreaSample`] over [`Real`]: the point, normal and area density move
+/// with the emitter's parameters for the same random numbers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AreaSampleR<R> {
+    pub point: V3<R>,
+    pub normal: V3<R>,
+    pub emission: V3<R>,
+    pub pdf_area: R,
+}
+
+impl AreaSample {
+    /// The sample as constants over [`Real`].
+    #[inline(always)]
+    pub fn real<R: Real>(&self) -> AreaSampleR<R> {
+        AreaSampleR {
+            point: V3::from_vec3(self.point),
+            normal: V3::from_vec3(self.normal),
+            emission: V3::from_vec3(self.emission),
+            pdf_area: R::from_f32(self.pdf_area),
+        }
+    }
+}
+
+impl From<AreaSample> for AreaSampleR<f32> {
+    #[inline(always)]
+    fn from(s: AreaSample) -> Self {
+        s.real()
+    }
 }
 
 impl AreaLights {
@@ -178,6 +213,8 @@ impl AreaLights {
         let e = &self.emitters[i];
         let (point, normal) = e.shape.sample(u);
         Some(AreaSample {
+            prim: e.prim,
+            u,
             point,
             normal,
             emission: e.emission,

@@ -15,11 +15,11 @@
 //! Sits above [`crate::scene`] (it traces shadow rays through the scene)
 //! and below the integrators and [`crate::gi`].
 
-use crate::light::{AreaSample, PointLight};
-use crate::math::{Color, SplitMix64, Vec3, V3};
-use crate::scene::Scene;
+use crate::light::{AreaSampleR, Falloff, PointLight};
+use crate::math::{Color, Real, SplitMix64, Vec3, V3};
+use crate::scene::{Scene, View};
 use crate::shading;
-use crate::shape::Hit;
+use crate::shape::{Hit, HitR};
 use crate::stats::{NoStats, RayKind, Stats};
 use glam::Vec2;
 
@@ -52,39 +52,44 @@ pub fn visible<S: Stats>(scene: &Scene, hit: &Hit, dir: Vec3, target: Vec3, stat
 
 /// One point light as seen from a hit.
 #[derive(Clone, Copy, Debug)]
-pub struct Incidence {
+pub struct Incidence<R> {
     /// Unit direction towards the light.
-    pub dir: Vec3,
+    pub dir: V3<R>,
     /// cos θ = n·l with the shading normal (> 0).
-    pub cos_theta: f32,
+    pub cos_theta: R,
     /// The light arriving at the point (falloff applied).
-    pub arriving: Color,
+    pub arriving: V3<R>,
 }
 
-/// The light `light` sends to `hit`, if it reaches it: the light must lie
-/// in front of both the shading and the geometric normal (the geometric
-/// test keeps shadow rays from starting inside the object) and be visible.
+/// The light point light `i` sends to `hit`, if it reaches it: the light
+/// must lie in front of both the shading and the geometric normal (the
+/// geometric test keeps shadow rays from starting inside the object) and
+/// be visible. Which lights reach the point is decided on values; the
+/// direction, cosine and arriving light are the view's [`Real`]s.
 #[inline]
-pub fn point_light_incidence<S: Stats>(
-    scene: &Scene,
-    hit: &Hit,
-    light: &PointLight,
+pub fn point_light_incidence<V: View, S: Stats>(
+    view: &V,
+    hit: &HitR<V::R>,
+    i: usize,
     stats: &mut S,
-) -> Option<Incidence> {
-    let to_light = light.position - hit.point;
+) -> Option<Incidence<V::R>> {
+    let light = &view.scene().lights[i];
+    let (position, radiance) = view.point_light(i);
+    let to_light = position - hit.point;
     let dist = to_light.length();
     let l = to_light / dist;
     let cos_theta = hit.shading_normal.dot(l);
-    if cos_theta <= 0.0 || hit.geometric_normal.dot(l) <= 0.0 {
+    if cos_theta.value() <= 0.0 || hit.geometric_normal.value().dot(l.value()) <= 0.0 {
         return None;
     }
-    if !visible(scene, hit, l, light.position, stats) {
+    if !visible(view.scene(), &hit.hit, l.value(), position.value(), stats) {
         return None;
     }
+    let inverse_square = light.falloff == Falloff::InverseSquare;
     Some(Incidence {
         dir: l,
         cos_theta,
-        arriving: light.arriving(dist),
+        arriving: shading::point_light_arriving(radiance, inverse_square, dist),
     })
 }
 
@@ -92,19 +97,19 @@ pub fn point_light_incidence<S: Stats>(
 /// shadow ray: the light a Lambertian surface reflects, over its albedo
 /// ([`shading::lambert_point_light`]).
 #[inline]
-pub fn lambert_point_lights<S: Stats>(
-    scene: &Scene,
-    hit: &Hit,
+pub fn lambert_point_lights<V: View, S: Stats>(
+    view: &V,
+    hit: &HitR<V::R>,
     model: LightModel,
     stats: &mut S,
-) -> Color {
-    let mut sum = Color::ZERO;
-    for light in scene.lights.iter().filter(|l| model.sees(l)) {
-        if let Some(i) = point_light_incidence(scene, hit, light, stats) {
-            sum += Color::from(shading::lambert_point_light(
-                V3::from(i.arriving),
-                i.cos_theta,
-            ));
+) -> V3<V::R> {
+    let mut sum = V3::zero();
+    for (i, light) in view.scene().lights.iter().enumerate() {
+        if !model.sees(light) {
+            continue;
+        }
+        if let Some(inc) = point_light_incidence(view, hit, i, stats) {
+            sum += shading::lambert_point_light(inc.arriving, inc.cos_theta);
         }
     }
     sum
@@ -115,37 +120,39 @@ pub fn lambert_point_lights<S: Stats>(
 /// ray, with the power-heuristic MIS weight against cosine sampling when
 /// `mis` (else weight 1: light sampling alone).
 #[inline]
-pub fn lambert_area_sample<S: Stats>(
-    scene: &Scene,
-    hit: &Hit,
-    s: &AreaSample,
+pub fn lambert_area_sample<V: View, S: Stats>(
+    view: &V,
+    hit: &HitR<V::R>,
+    s: &AreaSampleR<V::R>,
     mis: bool,
     stats: &mut S,
-) -> Color {
+) -> V3<V::R> {
     let n = hit.shading_normal;
     let to = s.point - hit.point;
     let d2 = to.length_squared();
     let wi = to / d2.sqrt();
     let cos_x = n.dot(wi);
     let cos_l = s.normal.dot(wi).abs();
-    if cos_x <= 0.0 || hit.geometric_normal.dot(wi) <= 0.0 || cos_l <= 0.0 {
-        return Color::ZERO;
+    if cos_x.value() <= 0.0
+        || hit.geometric_normal.value().dot(wi.value()) <= 0.0
+        || cos_l.value() <= 0.0
+    {
+        return V3::zero();
     }
     let pdf_light = shading::area_to_solid_angle(s.pdf_area, d2, cos_l);
-    if !(pdf_light > 0.0 && pdf_light.is_finite() && visible(scene, hit, wi, s.point, stats)) {
-        return Color::ZERO;
+    let p = pdf_light.value();
+    if !(p > 0.0
+        && p.is_finite()
+        && visible(view.scene(), &hit.hit, wi.value(), s.point.value(), stats))
+    {
+        return V3::zero();
     }
     let w = if mis {
         shading::power_heuristic(pdf_light, shading::cosine_pdf(cos_x))
     } else {
-        1.0
+        V::R::one()
     };
-    Color::from(shading::lambert_light_sample(
-        V3::from(s.emission),
-        cos_x,
-        w,
-        pdf_light,
-    ))
+    shading::lambert_light_sample(s.emission, cos_x, w, pdf_light)
 }
 
 /// The direct light a surface at `p` with unit normal `n` receives, over
@@ -155,9 +162,9 @@ pub fn lambert_area_sample<S: Stats>(
 /// faces, whoever builds it. The samples' random numbers are keyed by the
 /// point, so the result does not depend on the thread count.
 pub fn surface_direct(scene: &Scene, p: Vec3, n: Vec3, area_samples: u32) -> Color {
-    let hit = Hit::at_surface(p, n);
+    let hit = HitR::from(Hit::at_surface(p, n));
     let mut stats = NoStats;
-    let mut sum = lambert_point_lights(scene, &hit, LightModel::Physical, &mut stats);
+    let mut sum: Color = lambert_point_lights(scene, &hit, LightModel::Physical, &mut stats).into();
     if area_samples > 0 && scene.area_lights.total_weight() > 0.0 {
         let key = p
             .to_array()
@@ -168,7 +175,8 @@ pub fn surface_direct(scene: &Scene, p: Vec3, n: Vec3, area_samples: u32) -> Col
         for _ in 0..area_samples {
             let (sel, u, v) = (rng.next_f32(), rng.next_f32(), rng.next_f32());
             if let Some(s) = scene.area_lights.sample(sel, Vec2::new(u, v)) {
-                area += lambert_area_sample(scene, &hit, &s, false, &mut stats);
+                let s = AreaSampleR::from(s);
+                area += Color::from(lambert_area_sample(scene, &hit, &s, false, &mut stats));
             }
         }
         sum += area / area_samples as f32;

@@ -34,6 +34,23 @@ enum Command {
     /// output holds channels R, G, B (each pixel's mean), variance.R/G/B
     /// (the unbiased sample variance of its samples) and count (samples).
     Render(RenderArgs),
+    /// Derivatives of the image with respect to scene parameters
+    /// (forward-mode automatic differentiation through the renderer).
+    ///
+    /// Writes the render and, per parameter, the image of ∂pixel/∂param
+    /// (EXR with per-pixel variances, and a PNG on a diverging colour
+    /// scale); prints each parameter's derivative of the image mean with
+    /// its standard error, and the time against the plain render. Runs
+    /// `whitted`, `direct` and `path:K` on the render's own samples (same
+    /// seed), so each pixel is the derivative of the same estimator.
+    ///
+    /// What it computes is the *interior* derivative: it misses the change
+    /// of which surface a sample sees (silhouettes, shadow and refraction
+    /// boundaries), so derivatives by parameters that move geometry
+    /// (positions, radii, transforms, the camera, light positions) are
+    /// biased at those edges. `--check fd` measures the difference against
+    /// central finite differences.
+    Grad(GradArgs),
     /// Compare an image with a reference (MSE, relMSE, PSNR, ꟻLIP).
     ///
     /// Prints the mean squared error, relative MSE, PSNR, the largest
@@ -234,13 +251,11 @@ struct ExperimentArgs {
     threads: Option<usize>,
 }
 
+/// What `render` and `grad` share: the scene and how to render it.
 #[derive(clap::Args, Debug)]
-struct RenderArgs {
+struct SceneArgs {
     /// Scene file (TOML; schema in book/src/reference/scene-files.md).
     scene: PathBuf,
-    /// Output image; the extension chooses the format (.png or .exr).
-    #[arg(short, long)]
-    output: PathBuf,
     /// Image width in pixels (overrides the scene's [image] width).
     #[arg(long)]
     width: Option<u32>,
@@ -263,10 +278,6 @@ struct RenderArgs {
     /// B = C = 1/3, radius 2). Not used by the adaptive sampler.
     #[arg(long, value_parser = Filter::parse)]
     filter: Option<Filter>,
-    /// Also write each pixel's sample count (rays spent by the adaptive
-    /// sampler) as a heatmap PNG.
-    #[arg(long)]
-    spp_map: Option<PathBuf>,
     /// Accelerator (default: the scene's): `brute`, `bvh[:volume[:builder[:leaf]]]`
     /// (volume aabb|sphere|sphere-ritter|ellipsoid|ellipsoid-ritter, builder
     /// s3|sah; `bvh` = bvh:aabb:sah), `bvh4` (4-wide box BVH, the fastest) or
@@ -289,10 +300,6 @@ struct RenderArgs {
     /// (default 3), or `off` to trace every path to K bounces.
     #[arg(long, value_parser = parse_rr_depth)]
     rr_depth: Option<RrDepth>,
-    /// Reference image (.exr or .png, same size) to report MSE and relMSE
-    /// against.
-    #[arg(long)]
-    reference: Option<PathBuf>,
     /// Maximum recursion depth of the Whitted integrator (camera rays are
     /// depth 0).
     #[arg(long)]
@@ -300,9 +307,70 @@ struct RenderArgs {
     /// Seed for randomised samplers and integrators.
     #[arg(long)]
     seed: Option<u64>,
+}
+
+impl SceneArgs {
+    fn overrides(&self) -> Overrides {
+        Overrides {
+            width: self.width,
+            height: self.height,
+            sampler: self.sampler,
+            filter: self.filter,
+            accel: self.accel,
+            max_depth: self.max_depth,
+            seed: self.seed,
+        }
+    }
+
+    fn integrator(&self) -> IntegratorKind {
+        match self.rr_depth {
+            Some(RrDepth(rr)) => self.integrator.with_rr_start(rr),
+            None => self.integrator,
+        }
+    }
+}
+
+#[derive(clap::Args, Debug)]
+struct RenderArgs {
+    #[command(flatten)]
+    common: SceneArgs,
+    /// Output image; the extension chooses the format (.png or .exr).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Also write each pixel's sample count (rays spent by the adaptive
+    /// sampler) as a heatmap PNG.
+    #[arg(long)]
+    spp_map: Option<PathBuf>,
+    /// Reference image (.exr or .png, same size) to report MSE and relMSE
+    /// against.
+    #[arg(long)]
+    reference: Option<PathBuf>,
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
+}
+
+#[derive(clap::Args, Debug)]
+struct GradArgs {
+    #[command(flatten)]
+    common: SceneArgs,
+    /// A parameter to differentiate by, named by its place in the scene
+    /// file: `materials.NAME.color[0]`, `light[0].position[2]`,
+    /// `sphere[1].radius`, `triangle[4].vertices[1][0]`,
+    /// `mesh[0].translate[1]`, `camera.fov`… A vector without an index
+    /// means all its components. Repeat for more.
+    #[arg(long = "param", required = true)]
+    params: Vec<String>,
+    /// Output folder: image.exr (the render), and per parameter
+    /// <param>.exr (R, G, B = ∂pixel/∂param, variance.R/G/B, count) and
+    /// <param>.png (+ .svg, the channel mean on a diverging scale).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Check against central finite differences: `fd` (step by the rule
+    /// h = ε^(1/3)·max(|p|, 1)) or `fd:H` (step H). Two extra renders per
+    /// parameter; writes <param>.fd-diff.png.
+    #[arg(long, value_parser = report::grad::FdCheck::parse)]
+    check: Option<report::grad::FdCheck>,
 }
 
 /// `--rr-depth`: a bounce count, or `off`.
@@ -322,6 +390,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => cmd_render(args),
+        Command::Grad(args) => cmd_grad(args),
         Command::Diff(args) => cmd_diff(args),
         Command::Experiment(args) => cmd_experiment(args),
         Command::Stats {
@@ -356,32 +425,33 @@ fn main() -> ExitCode {
 }
 
 fn cmd_render(args: RenderArgs) -> Result<()> {
-    let integrator = match args.rr_depth {
-        Some(RrDepth(rr)) => args.integrator.with_rr_start(rr),
-        None => args.integrator,
-    };
     let opts = report::RenderOptions {
-        scene: args.scene,
+        overrides: args.common.overrides(),
+        integrator: args.common.integrator(),
+        scene: args.common.scene,
         output: args.output,
-        overrides: Overrides {
-            width: args.width,
-            height: args.height,
-            sampler: args.sampler,
-            filter: args.filter,
-            accel: args.accel,
-            max_depth: args.max_depth,
-            seed: args.seed,
-        },
-        integrator,
         reference: args.reference,
         spp_map: args.spp_map,
-        threads: args.threads,
+        threads: args.common.threads,
     };
     let report = report::RenderReport::run(&opts)?;
     if args.quiet {
         return Ok(());
     }
     print_stdout(&report.to_string())
+}
+
+fn cmd_grad(args: GradArgs) -> Result<()> {
+    let opts = report::grad::GradOptions {
+        overrides: args.common.overrides(),
+        integrator: args.common.integrator(),
+        scene: args.common.scene,
+        out_dir: args.output,
+        params: args.params,
+        check: args.check,
+        threads: args.common.threads,
+    };
+    print_stdout(&report::grad::GradReport::run(&opts)?.to_string())
 }
 
 fn cmd_diff(args: DiffArgs) -> Result<()> {

@@ -10,7 +10,7 @@
 //! (checkerboard, zone plate): point-sampled on purpose, with no filtering,
 //! so that the samplers alone decide how much they alias.
 
-use crate::math::{Color, Vec3};
+use crate::math::{Color, Real, Vec3, V3};
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -87,6 +87,13 @@ fn z_axis() -> Vec3 {
 impl Texture {
     /// The pattern's value in [0, 1] at `p` (1 = the material's colour).
     pub fn value(&self, p: Vec3) -> f32 {
+        self.value_at(V3::<f32>::from(p))
+    }
+
+    /// [`Texture::value`] over [`Real`]: the zone plate is a smooth function
+    /// of the point; the checker is piecewise constant (its derivative is 0
+    /// inside a square; its edges are visibility-like discontinuities).
+    pub fn value_at<R: Real>(&self, p: V3<R>) -> R {
         match *self {
             Texture::Checker {
                 size,
@@ -95,14 +102,10 @@ impl Texture {
                 v_axis,
                 ..
             } => {
-                let d = p - origin;
+                let d = p.value() - origin;
                 let (u, v) = (d.dot(u_axis) / size, d.dot(v_axis) / size);
                 let parity = (u.floor() as i64 + v.floor() as i64).rem_euclid(2);
-                if parity == 0 {
-                    1.0
-                } else {
-                    0.0
-                }
+                R::from_f32(if parity == 0 { 1.0 } else { 0.0 })
             }
             Texture::ZonePlate {
                 k,
@@ -111,9 +114,10 @@ impl Texture {
                 v_axis,
                 ..
             } => {
-                let d = p - origin;
-                let (u, v) = (d.dot(u_axis), d.dot(v_axis));
-                0.5 * (1.0 + (k * (u * u + v * v)).sin())
+                let d = p - V3::from_vec3(origin);
+                let (u, v) = (d.dot(V3::from_vec3(u_axis)), d.dot(V3::from_vec3(v_axis)));
+                let half = R::from_f32(0.5);
+                half * (R::one() + (R::from_f32(k) * (u * u + v * v)).sin())
             }
         }
     }
@@ -182,16 +186,34 @@ impl Default for Material {
     }
 }
 
-impl Material {
+/// A material's numbers over [`Real`]: what the integrators read at a hit.
+/// [`Material::real`] gives the constant one; the derivative code builds
+/// ones whose fields carry derivatives with respect to scene parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct MaterialR<R> {
+    pub color: V3<R>,
+    pub ambient: R,
+    pub diffuse: R,
+    pub specular: R,
+    pub shininess: R,
+    pub specular_color: V3<R>,
+    pub reflectivity: R,
+    pub transparency: R,
+    pub ior: R,
+    pub emission: V3<R>,
+    pub texture: Option<Texture>,
+}
+
+impl<R: Real> MaterialR<R> {
     /// The surface colour at `p`: `color`, or the texture's mix of `color`
     /// and its own colour.
     #[inline]
-    pub fn color_at(&self, p: Vec3) -> Color {
+    pub fn color_at(&self, p: V3<R>) -> V3<R> {
         match &self.texture {
             None => self.color,
             Some(t) => {
-                let w = t.value(p);
-                w * self.color + (1.0 - w) * t.other_color()
+                let w = t.value_at(p);
+                self.color * w + V3::from_vec3(t.other_color()) * (R::one() - w)
             }
         }
     }
@@ -201,8 +223,42 @@ impl Material {
     /// texture), clamped to [0, 1] per channel so that no surface reflects
     /// more than it receives.
     #[inline]
+    pub fn lambert_albedo(&self, p: V3<R>) -> V3<R> {
+        (self.color_at(p) * self.diffuse).clamp(0.0, 1.0)
+    }
+}
+
+impl Material {
+    /// The material's numbers as constants over [`Real`].
+    #[inline]
+    pub fn real<R: Real>(&self) -> MaterialR<R> {
+        let c = V3::from_vec3;
+        let r = R::from_f32;
+        MaterialR {
+            color: c(self.color),
+            ambient: r(self.ambient),
+            diffuse: r(self.diffuse),
+            specular: r(self.specular),
+            shininess: r(self.shininess),
+            specular_color: c(self.specular_color),
+            reflectivity: r(self.reflectivity),
+            transparency: r(self.transparency),
+            ior: r(self.ior),
+            emission: c(self.emission),
+            texture: self.texture,
+        }
+    }
+
+    /// The surface colour at `p` ([`MaterialR::color_at`]).
+    #[inline]
+    pub fn color_at(&self, p: Vec3) -> Color {
+        self.real::<f32>().color_at(p.into()).into()
+    }
+
+    /// The Lambertian albedo at `p` ([`MaterialR::lambert_albedo`]).
+    #[inline]
     pub fn lambert_albedo(&self, p: Vec3) -> Color {
-        (self.diffuse * self.color_at(p)).clamp(Color::ZERO, Color::ONE)
+        self.real::<f32>().lambert_albedo(p.into()).into()
     }
 
     /// Check ranges; returns a message naming the offending field.

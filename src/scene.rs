@@ -5,14 +5,92 @@
 use crate::accel::{Accel, AccelKind, Accelerator};
 use crate::camera::Camera;
 use crate::film::Filter;
-use crate::light::{AreaLights, PointLight};
-use crate::material::Material;
-use crate::math::Aabb;
+use crate::light::{AreaLights, AreaSample, AreaSampleR, PointLight};
+use crate::material::{Material, MaterialR};
+use crate::math::{Aabb, RayR, Real, V3};
 use crate::math::{Color, Ray, Vec3};
 use crate::sampler::Sampler;
 use crate::shape::triangle::NO_MESH;
-use crate::shape::{Hit, PreparedRay, PrimHit, Primitive, Shape};
+use crate::shape::{Hit, HitR, PreparedRay, PrimHit, Primitive, Shape};
 use crate::stats::Stats;
+
+/// What the integrators read of a scene, over a [`Real`] scalar `R`.
+///
+/// A [`Scene`] is the view with `R = f32`: every method returns what the
+/// scene holds, unchanged, so the renders run exactly as if they read the
+/// scene directly. The derivative code's view (`crate::diff`) returns the
+/// same quantities as dual numbers carrying their derivatives with respect
+/// to chosen scene parameters. Traversal is not part of a view: it stays
+/// `f32` on [`View::scene`] and only decides which primitive is hit; the
+/// view then gives that hit as a function of the parameters
+/// ([`View::surface`]).
+pub trait View: Sync {
+    type R: Real;
+    /// The scene traversal and visibility run on.
+    fn scene(&self) -> &Scene;
+    /// The camera ray through film position (x, y) in pixels.
+    fn camera_ray(&self, x: f32, y: f32) -> RayR<Self::R>;
+    /// The hit `hit` (found by traversal along `ray.value()`) as a
+    /// function of the ray and the primitive's geometry.
+    fn surface(&self, ray: &RayR<Self::R>, hit: Hit) -> HitR<Self::R>;
+    /// The material of scene object `object`.
+    fn material(&self, object: u32) -> MaterialR<Self::R>;
+    /// Point light `i`'s position and radiance (colour × intensity).
+    fn point_light(&self, i: usize) -> (V3<Self::R>, V3<Self::R>);
+    /// The area-light sample `s` (drawn by the scene's `f32` sampler, which
+    /// makes the discrete choice of emitter) with its point, normal,
+    /// emission and area density as functions of the emitter's parameters.
+    fn area_sample(&self, s: &AreaSample) -> AreaSampleR<Self::R>;
+    /// The area density with which light sampling picks a point on
+    /// primitive `prim` that emits `emission` ([`AreaLights::pdf_area`]).
+    fn emitter_pdf(&self, prim: u32, emission: V3<Self::R>) -> Self::R;
+    /// Radiance of rays that leave the scene.
+    fn background(&self) -> V3<Self::R>;
+    /// The ambient light of the Whitted integrator.
+    fn ambient(&self) -> V3<Self::R>;
+}
+
+impl View for Scene {
+    type R = f32;
+    #[inline(always)]
+    fn scene(&self) -> &Scene {
+        self
+    }
+    #[inline(always)]
+    fn camera_ray(&self, x: f32, y: f32) -> RayR<f32> {
+        self.camera.generate_ray(x, y).into()
+    }
+    #[inline(always)]
+    fn surface(&self, _: &RayR<f32>, hit: Hit) -> HitR<f32> {
+        hit.into()
+    }
+    #[inline(always)]
+    fn material(&self, object: u32) -> MaterialR<f32> {
+        self.materials[self.objects[object as usize].material as usize].real()
+    }
+    #[inline(always)]
+    fn point_light(&self, i: usize) -> (V3<f32>, V3<f32>) {
+        let l = &self.lights[i];
+        (l.position.into(), l.radiance.into())
+    }
+    #[inline(always)]
+    fn area_sample(&self, s: &AreaSample) -> AreaSampleR<f32> {
+        (*s).into()
+    }
+    #[inline(always)]
+    fn emitter_pdf(&self, prim: u32, emission: V3<f32>) -> f32 {
+        self.area_lights
+            .pdf_area(&self.prims[prim as usize], emission.into())
+    }
+    #[inline(always)]
+    fn background(&self) -> V3<f32> {
+        self.settings.background.into()
+    }
+    #[inline(always)]
+    fn ambient(&self) -> V3<f32> {
+        self.settings.ambient.into()
+    }
+}
 
 /// Settings that control the integrator, not the geometry.
 #[derive(Clone, Copy, Debug, PartialEq)]

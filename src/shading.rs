@@ -50,8 +50,8 @@ pub struct Phong<R> {
     pub diffuse: R,
     /// Specular coefficient k_s.
     pub specular: R,
-    /// Phong exponent (a constant: it is not differentiated).
-    pub shininess: f32,
+    /// Phong exponent.
+    pub shininess: R,
     /// Surface colour at the point (texture applied).
     pub albedo: V3<R>,
     /// Colour of the highlight.
@@ -68,7 +68,7 @@ pub struct Phong<R> {
 pub fn phong<R: Real>(m: &Phong<R>, n: V3<R>, l: V3<R>, view: V3<R>, e: V3<R>) -> V3<R> {
     let diffuse = m.diffuse * n.dot(l);
     let r = reflect(-l, n);
-    let specular = m.specular * r.dot(view).max(R::zero()).powf(m.shininess);
+    let specular = m.specular * r.dot(view).max(R::zero()).pow(m.shininess);
     e * (m.albedo * diffuse + m.specular_color * specular)
 }
 // ANCHOR_END: phong

@@ -20,7 +20,7 @@ const LAYERS: &[&[&str]] = &[
     &["gi"],
     &["integrator"],
     &["io"],
-    &["analysis"],
+    &["analysis", "diff"],
     &["validate"],
     &["experiment"],
     &["report"],

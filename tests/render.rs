@@ -161,7 +161,14 @@ fn point_in_shadow_gets_only_ambient() {
     let at = |target: Vec3| {
         let eye = Vec3::new(0.0, 3.0, 6.0);
         let ray = Ray::new(eye, (target - eye).normalize());
-        trace(&s, &ray, 0, 1.0, MediumStack::default(), &mut NoStats)
+        Vec3::from(trace(
+            &s,
+            &ray.into(),
+            0,
+            1.0,
+            MediumStack::default(),
+            &mut NoStats,
+        ))
     };
     let ambient = 0.3 * 0.5 * Vec3::new(0.6, 0.7, 0.8);
     assert_eq!(at(Vec3::new(0.0, 0.0, 0.1)), ambient);
@@ -331,7 +338,7 @@ material = "glass"
     let ray = Ray::new(Vec3::new(0.0, h, 0.0), Vec3::X);
     let media = MediumStack::default().entered(0, 1.5);
     let mut c = Counters::default();
-    let colour = trace(&s, &ray, 0, 1.0, media, &mut c);
+    let colour = Vec3::from(trace(&s, &ray.into(), 0, 1.0, media, &mut c));
     assert_eq!(
         c.refraction_rays, 0,
         "the ray escaped past the critical angle"

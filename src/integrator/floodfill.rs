@@ -40,7 +40,7 @@ use crate::gi::{
     wall_light, Averaging, FloodFill, FloodFillConfig, GridSpec, Lookup, Threads, VoxelGrid,
     DEFAULT_WALL_LIGHT_SAMPLES,
 };
-use crate::math::{Color, Ray};
+use crate::math::{Color, Ray, RayR};
 use crate::scene::Scene;
 use crate::shape::Hit;
 use crate::stats::{RenderStats, Stats};
@@ -268,6 +268,8 @@ impl Integrator for FloodFillIntegrator {
             cache: &self.cache,
             lookup: self.settings.lookup,
         };
-        self.path.trace(scene, ray, ctx, stats, Some(&end))
+        self.path
+            .trace(scene, &RayR::from(*ray), ctx, stats, Some(&end))
+            .into()
     }
 }

@@ -212,7 +212,7 @@ pub fn render_with_costs<I: Integrator>(
 }
 
 /// Run `f` on a pool of `threads` workers, or on rayon's global pool.
-fn in_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T {
+pub(crate) fn in_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T {
     match threads {
         None => f(),
         Some(n) => rayon::ThreadPoolBuilder::new()

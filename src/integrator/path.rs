@@ -51,10 +51,10 @@
 
 use super::{Integrator, SampleContext};
 use crate::lighting::{lambert_area_sample, lambert_point_lights, LightModel};
-use crate::math::{cosine_hemisphere, orthonormal_basis, Color, Ray, SplitMix64, Vec3};
-use crate::scene::Scene;
+use crate::math::{cosine_hemisphere, orthonormal_basis_r, Color, Ray, RayR, Real, SplitMix64, V3};
+use crate::scene::{Scene, View};
 use crate::shading::{area_to_solid_angle, cosine_pdf, power_heuristic};
-use crate::shape::Hit;
+use crate::shape::{Hit, HitR};
 use crate::stats::{RayKind, Stats};
 use glam::Vec2;
 
@@ -126,7 +126,8 @@ impl Integrator for PathTracer {
         ctx: &SampleContext,
         stats: &mut S,
     ) -> Color {
-        self.trace(scene, ray, ctx, stats, None::<&NoEnd>)
+        self.trace(scene, &RayR::from(*ray), ctx, stats, None::<&NoEnd>)
+            .into()
     }
 }
 
@@ -153,74 +154,86 @@ impl PathTracer {
     /// as usual), x₂ adds albedo × `end.light_at(x₂)` in place of its own
     /// light sampling and further bounces.
     // ANCHOR: path_radiance
-    pub fn trace<S: Stats, E: PathEnd>(
+    pub fn trace<V: View, S: Stats, E: PathEnd>(
         &self,
-        scene: &Scene,
-        ray: &Ray,
+        view: &V,
+        ray: &RayR<V::R>,
         ctx: &SampleContext,
         stats: &mut S,
         end: Option<&E>,
-    ) -> Color {
+    ) -> V3<V::R> {
+        let scene = view.scene();
         let set = &scene.settings;
         stats.ray(RayKind::Camera);
-        let Some(mut hit) = scene.intersect(ray, set.max_distance, stats) else {
-            return set.background;
+        let Some(found) = scene.intersect(&ray.value(), set.max_distance, stats) else {
+            return view.background();
         };
+        let mut hit = view.surface(ray, found);
         // Emission seen directly has no other strategy to share with.
-        let mut radiance = scene.material(&hit).emission;
-        let mut beta = Color::ONE;
+        let mut radiance = view.material(found.object).emission;
+        let mut beta = V3::splat(V::R::one());
         for bounce in 0..=self.max_bounces {
-            let albedo = scene.material(&hit).lambert_albedo(hit.point);
-            if albedo == Color::ZERO {
+            let albedo = view.material(hit.hit.object).lambert_albedo(hit.point);
+            if albedo.value() == Color::ZERO {
                 break;
             }
             let u = vertex_numbers(ctx, bounce);
             let n = hit.shading_normal;
             radiance +=
-                beta * albedo * lambert_point_lights(scene, &hit, LightModel::Physical, stats);
+                beta * albedo * lambert_point_lights(view, &hit, LightModel::Physical, stats);
             if self.strategy != LightStrategy::BsdfOnly {
                 if let Some(s) = scene.area_lights.sample(u[0], Vec2::new(u[1], u[2])) {
                     let mis = self.strategy == LightStrategy::Mis;
-                    radiance += beta * albedo * lambert_area_sample(scene, &hit, &s, mis, stats);
+                    let s = view.area_sample(&s);
+                    radiance += beta * albedo * lambert_area_sample(view, &hit, &s, mis, stats);
                 }
             }
 
             // Cosine-weighted BRDF sample: f·cos θ / p = (ρ/π)·cos θ / (cos θ/π) = ρ.
+            // The direction is built in the frame of the (parameter-
+            // dependent) normal, so for fixed numbers it turns with it.
             let local = cosine_hemisphere(Vec2::new(u[3], u[4]));
-            let (t, b) = orthonormal_basis(n);
-            let wi = (local.x * t + local.y * b + local.z * n).normalize();
-            if local.z <= 0.0 || hit.geometric_normal.dot(wi) <= 0.0 {
+            let (t, b) = orthonormal_basis_r(n);
+            let l = |c: f32| V::R::from_f32(c);
+            let wi = (t * l(local.x) + b * l(local.y) + n * l(local.z)).normalize();
+            if local.z <= 0.0 || hit.geometric_normal.value().dot(wi.value()) <= 0.0 {
                 // Below the true surface (only with interpolated normals).
                 break;
             }
-            let pdf_brdf = cosine_pdf(local.z);
-            beta *= albedo;
-            let next_ray = Ray::new(hit.spawn_origin(wi), wi);
+            // Its density is fixed by the local direction: cos θ = local.z.
+            let pdf_brdf = cosine_pdf(V::R::from_f32(local.z));
+            beta = beta * albedo;
+            let next_ray = RayR::new(hit.spawn_origin(wi), wi);
             stats.ray(RayKind::Path);
-            let Some(next) = scene.intersect(&next_ray, set.max_distance, stats) else {
-                radiance += beta * set.background;
+            let Some(found) = scene.intersect(&next_ray.value(), set.max_distance, stats) else {
+                radiance += beta * view.background();
                 break;
             };
-            let le = scene.material(&next).emission;
-            if le != Color::ZERO {
-                radiance += beta * le * self.brdf_hit_weight(scene, &next, le, wi, pdf_brdf);
+            let next = view.surface(&next_ray, found);
+            let le = view.material(found.object).emission;
+            if le.value() != Color::ZERO {
+                let w = self.brdf_hit_weight(view, &next, le, wi, pdf_brdf);
+                radiance += beta * le * w;
             }
             if let Some(end) = end {
                 // The next vertex's numbers, which it no longer needs.
                 let v = vertex_numbers(ctx, bounce + 1);
-                let albedo = scene.material(&next).lambert_albedo(next.point);
-                radiance += beta * albedo * end.light_at(&next, [v[0], v[1], v[2]]);
+                let albedo = view.material(found.object).lambert_albedo(next.point);
+                let cached = V3::from_vec3(end.light_at(&found, [v[0], v[1], v[2]]));
+                radiance += beta * albedo * cached;
                 break;
             }
             if bounce == self.max_bounces {
                 break;
             }
             if self.rr_start.is_some_and(|s| bounce + 1 >= s) {
-                let q = beta.max_element().min(1.0);
+                // A discrete choice: its probability is a constant of the
+                // estimator, not differentiated.
+                let q = beta.value().max_element().min(1.0);
                 if u[5] >= q {
                     break;
                 }
-                beta /= q;
+                beta = beta / V::R::from_f32(q);
             }
             hit = next;
         }
@@ -230,27 +243,26 @@ impl PathTracer {
 
     /// The weight of emission `le` found at `next` by a BRDF-sampled ray of
     /// direction `wi` and density `pdf_brdf`.
-    fn brdf_hit_weight(
+    fn brdf_hit_weight<V: View>(
         &self,
-        scene: &Scene,
-        next: &Hit,
-        le: Color,
-        wi: Vec3,
-        pdf_brdf: f32,
-    ) -> f32 {
-        let pdf_area = scene
-            .area_lights
-            .pdf_area(&scene.prims[next.prim as usize], le);
-        if pdf_area == 0.0 {
-            return 1.0; // not reachable by light sampling
+        view: &V,
+        next: &HitR<V::R>,
+        le: V3<V::R>,
+        wi: V3<V::R>,
+        pdf_brdf: V::R,
+    ) -> V::R {
+        let one = V::R::one();
+        let pdf_area = view.emitter_pdf(next.hit.prim, le);
+        if pdf_area.value() == 0.0 {
+            return one; // not reachable by light sampling
         }
         match self.strategy {
-            LightStrategy::BsdfOnly => 1.0,
-            LightStrategy::LightOnly => 0.0,
+            LightStrategy::BsdfOnly => one,
+            LightStrategy::LightOnly => V::R::zero(),
             LightStrategy::Mis => {
                 let cos_l = next.geometric_normal.dot(wi).abs();
-                if cos_l <= 0.0 {
-                    return 1.0;
+                if cos_l.value() <= 0.0 {
+                    return one;
                 }
                 let pdf_light = area_to_solid_angle(pdf_area, next.t * next.t, cos_l);
                 power_heuristic(pdf_brdf, pdf_light)

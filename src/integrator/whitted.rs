@@ -21,8 +21,8 @@
 
 use super::{Integrator, SampleContext};
 use crate::lighting::{point_light_incidence, LightModel};
-use crate::math::{Color, Ray, Vec3, V3};
-use crate::scene::Scene;
+use crate::math::{Color, Ray, RayR, Real, V3};
+use crate::scene::{Scene, View};
 use crate::shading::{emission_and_ambient, phong, reflect, refract, Phong};
 use crate::stats::{RayKind, Stats};
 
@@ -57,6 +57,11 @@ impl MediumStack {
         }
     }
 
+    /// The object the ray is innermost in (`None`: air).
+    pub fn innermost(&self) -> Option<u32> {
+        self.len.checked_sub(1).map(|i| self.entries[i].0)
+    }
+
     /// The stack after entering `object` with index `ior`.
     pub fn entered(mut self, object: u32, ior: f32) -> Self {
         if self.len < Self::CAPACITY {
@@ -89,81 +94,111 @@ impl Integrator for Whitted {
         _: &SampleContext,
         stats: &mut S,
     ) -> Color {
+        Whitted.radiance_of(scene, &RayR::from(*ray), stats).into()
+    }
+}
+
+impl Whitted {
+    /// The colour along a camera ray, over the view's scalar (`f32` for a
+    /// render, dual numbers for its derivatives).
+    pub fn radiance_of<V: View, S: Stats>(
+        &self,
+        view: &V,
+        ray: &RayR<V::R>,
+        stats: &mut S,
+    ) -> V3<V::R> {
         stats.ray(RayKind::Camera);
-        trace(scene, ray, 0, 1.0, MediumStack::default(), stats)
+        trace(view, ray, 0, 1.0, MediumStack::default(), stats)
+    }
+}
+
+/// Index of refraction of the medium a ray is in: its innermost object's
+/// material's, as the view gives it (air, 1, outside every object).
+#[inline]
+fn medium_ior<V: View>(view: &V, media: &MediumStack) -> V::R {
+    match media.innermost() {
+        None => V::R::one(),
+        Some(object) => view.material(object).ior,
     }
 }
 
 // ANCHOR: whitted_trace
 /// The recursive trace. `ray.dir` must be unit length (so `t` is a
-/// distance for the maximum-distance cut-off).
-pub fn trace<S: Stats>(
-    scene: &Scene,
-    ray: &Ray,
+/// distance for the maximum-distance cut-off). Which rays are traced (the
+/// depth and weight cut-offs, total internal reflection) is decided on
+/// values, as the `f32` render decides it.
+pub fn trace<V: View, S: Stats>(
+    view: &V,
+    ray: &RayR<V::R>,
     depth: u32,
     weight: f32,
     media: MediumStack,
     stats: &mut S,
-) -> Color {
+) -> V3<V::R> {
+    let scene = view.scene();
     let set = &scene.settings;
-    let Some(hit) = scene.intersect(ray, set.max_distance, stats) else {
-        return set.background;
+    let Some(found) = scene.intersect(&ray.value(), set.max_distance, stats) else {
+        return view.background();
     };
-    let m = scene.material(&hit);
-    let n = V3::from(hit.shading_normal);
-    let view = -V3::from(ray.dir);
-    let albedo = V3::from(m.color_at(hit.point));
+    let hit = view.surface(ray, found);
+    let m = view.material(found.object);
+    let n = hit.shading_normal;
+    let view_dir = -ray.dir;
+    let albedo = m.color_at(hit.point);
 
-    let mut color = emission_and_ambient(
-        V3::from(m.emission),
-        m.ambient,
-        V3::from(set.ambient),
-        albedo,
-    );
+    let mut color = emission_and_ambient(m.emission, m.ambient, view.ambient(), albedo);
     let phong_terms = Phong {
         diffuse: m.diffuse,
         specular: m.specular,
         shininess: m.shininess,
         albedo,
-        specular_color: V3::from(m.specular_color),
+        specular_color: m.specular_color,
     };
-    for light in scene.lights.iter().filter(|l| LightModel::Whitted.sees(l)) {
-        if let Some(i) = point_light_incidence(scene, &hit, light, stats) {
-            color += phong(&phong_terms, n, V3::from(i.dir), view, V3::from(i.arriving));
+    for (i, light) in scene.lights.iter().enumerate() {
+        if !LightModel::Whitted.sees(light) {
+            continue;
+        }
+        if let Some(inc) = point_light_incidence(view, &hit, i, stats) {
+            color += phong(&phong_terms, n, inc.dir, view_dir, inc.arriving);
         }
     }
-    let mut color = Color::from(color);
 
     if depth + 1 >= set.max_depth {
         return color;
     }
+    let (transparency, ior) = (m.transparency.value(), m.ior.value());
     let mut reflect_weight = m.reflectivity;
-    if m.transparency > 0.0 && weight * m.transparency >= set.min_weight {
+    if transparency > 0.0 && weight * transparency >= set.min_weight {
         // Entering through a front face, leaving through a back face.
-        let (n1, n2, next) = if hit.front_face {
-            (media.current(), m.ior, media.entered(hit.object, m.ior))
+        let (n1, n2, next) = if found.front_face {
+            (
+                medium_ior(view, &media),
+                m.ior,
+                media.entered(found.object, ior),
+            )
         } else {
-            let next = media.left(hit.object);
-            (media.current(), next.current(), next)
+            let next = media.left(found.object);
+            (medium_ior(view, &media), medium_ior(view, &next), next)
         };
-        match refract(view, n, n1 / n2) {
+        match refract(view_dir, n, n1 / n2) {
             Some(t_dir) => {
-                let t_dir = Vec3::from(t_dir).normalize();
-                let r = Ray::new(hit.spawn_origin(t_dir), t_dir);
+                let t_dir = t_dir.normalize();
+                let r = RayR::new(hit.spawn_origin(t_dir), t_dir);
                 stats.ray(RayKind::Refraction);
-                let w = weight * m.transparency;
-                color += m.transparency * trace(scene, &r, depth + 1, w, next, stats);
+                let w = weight * transparency;
+                color += trace(view, &r, depth + 1, w, next, stats) * m.transparency;
             }
             // Total internal reflection: the transmitted share is reflected.
             None => reflect_weight += m.transparency,
         }
     }
-    if reflect_weight > 0.0 && weight * reflect_weight >= set.min_weight {
-        let r_dir = Vec3::from(reflect(V3::from(ray.dir), n)).normalize();
-        let r = Ray::new(hit.spawn_origin(r_dir), r_dir);
+    let rw = reflect_weight.value();
+    if rw > 0.0 && weight * rw >= set.min_weight {
+        let r_dir = reflect(ray.dir, n).normalize();
+        let r = RayR::new(hit.spawn_origin(r_dir), r_dir);
         stats.ray(RayKind::Reflection);
-        let w = weight * reflect_weight;
-        color += reflect_weight * trace(scene, &r, depth + 1, w, media, stats);
+        let w = weight * rw;
+        color += trace(view, &r, depth + 1, w, media, stats) * reflect_weight;
     }
     color
 }

@@ -9,7 +9,7 @@ use crate::camera::Camera;
 use crate::film::Filter;
 use crate::light::{Falloff, PointLight};
 use crate::material::Material;
-use crate::math::{rotation_xyz_degrees, Color, Mat3, Vec3};
+use crate::math::{rotation_xyz_degrees, Color, Mat3, Real, Vec3, M3, V3};
 use crate::sampler::Sampler;
 use crate::scene::{MeshShading, RenderSettings, Scene, SceneObject};
 use crate::shape::{Ellipsoid, Plane, Primitive, Shape, Sphere, Triangle};
@@ -445,7 +445,7 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
 }
 
 /// The mesh data of a `[[mesh]]` entry and a label for it.
-fn load_mesh(d: &MeshDef, base: &Path) -> Result<(MeshData, String), String> {
+pub fn load_mesh(d: &MeshDef, base: &Path) -> Result<(MeshData, String), String> {
     match (&d.file, &d.procedural) {
         (Some(file), None) => {
             let data = super::read_mesh(&base.join(file))
@@ -469,6 +469,43 @@ struct MeshTransform {
     offset: Vec3,
 }
 
+/// What `fit` needs of a mesh's own positions: the largest extent of their
+/// bounding box and its centre.
+pub fn fit_box(positions: &[Vec3]) -> Result<(f32, Vec3), String> {
+    let (lo, hi) = positions.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    );
+    let largest = (hi - lo).max_element();
+    if largest.is_nan() || largest <= 0.0 {
+        return Err("cannot `fit` a mesh whose bounding box is a point".into());
+    }
+    Ok((largest, 0.5 * (lo + hi)))
+}
+
+/// A mesh's transform over [`Real`] (the one formula; the loader runs it on
+/// `f32`, the derivative code on dual numbers): `fit` (the target size, with
+/// the mesh's [`fit_box`]), then `scale`, `rotate` (degrees) and
+/// `translate`. Returns the linear part L = R·S, the offset and the normal
+/// map (L⁻ᵀ = R·S⁻¹, S being diagonal and R orthonormal).
+pub fn mesh_affine<R: Real>(
+    scale: V3<R>,
+    rotate: V3<R>,
+    translate: V3<R>,
+    fit: Option<(R, f32, Vec3)>,
+) -> (M3<R>, V3<R>, M3<R>) {
+    let (fit_scale, centre) = match fit {
+        None => (R::one(), V3::zero()),
+        Some((size, largest, centre)) => (size / R::from_f32(largest), V3::from_vec3(centre)),
+    };
+    let s = scale * fit_scale;
+    let rot = M3::rotation_xyz_degrees(rotate);
+    let linear = rot.mul_mat(&M3::diagonal(s));
+    let one = R::one();
+    let normal = rot.mul_mat(&M3::diagonal(V3::new(one / s.x, one / s.y, one / s.z)));
+    (linear, translate - linear.mul_vec(centre), normal)
+}
+
 impl MeshTransform {
     fn new(d: &MeshDef, positions: &[Vec3]) -> Result<Self, String> {
         let scale = match d.scale {
@@ -481,26 +518,23 @@ impl MeshTransform {
         if !(d.rotate.is_finite() && d.translate.is_finite()) {
             return Err("`rotate` and `translate` must be finite".into());
         }
-        let (fit_scale, fit_centre) = match d.fit {
-            None => (1.0, Vec3::ZERO),
+        let fit = match d.fit {
+            None => None,
             Some(size) if size > 0.0 && size.is_finite() => {
-                let (lo, hi) = positions.iter().fold(
-                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-                    |(lo, hi), &p| (lo.min(p), hi.max(p)),
-                );
-                let largest = (hi - lo).max_element();
-                if largest.is_nan() || largest <= 0.0 {
-                    return Err("cannot `fit` a mesh whose bounding box is a point".into());
-                }
-                (size / largest, 0.5 * (lo + hi))
+                let (largest, centre) = fit_box(positions)?;
+                Some((size, largest, centre))
             }
             Some(size) => return Err(format!("`fit` must be positive, got {size}")),
         };
-        let linear = rotation_xyz_degrees(d.rotate) * Mat3::from_diagonal(scale * fit_scale);
+        let (linear, offset, normal) =
+            mesh_affine(scale.into(), d.rotate.into(), d.translate.into(), fit);
+        let mat = |m: M3<f32>| {
+            Mat3::from_cols(m.rows[0].into(), m.rows[1].into(), m.rows[2].into()).transpose()
+        };
         Ok(Self {
-            linear,
-            normal: linear.inverse().transpose(),
-            offset: d.translate - linear * fit_centre,
+            linear: mat(linear),
+            normal: mat(normal),
+            offset: offset.into(),
         })
     }
 
@@ -518,11 +552,17 @@ impl MeshTransform {
 pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
     let mut normals = vec![Vec3::ZERO; positions.len()];
     for t in triangles {
-        let [a, b, c] = t.map(|k| positions[k as usize]);
-        let n = (b - a).cross(c - a);
+        let n: Vec3 = face_area_normal(t.map(|k| V3::from(positions[k as usize]))).into();
         for &k in t {
             normals[k as usize] += n;
         }
     }
     normals.iter().map(|n| n.normalize_or_zero()).collect()
+}
+
+/// A face's normal scaled by twice its area, (b − a) × (c − a): the term
+/// of [`vertex_normals`]' sums.
+#[inline]
+pub fn face_area_normal<R: Real>([a, b, c]: [V3<R>; 3]) -> V3<R> {
+    (b - a).cross(c - a)
 }

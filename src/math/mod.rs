@@ -4,12 +4,14 @@
 //! precision (the watertight triangle fallback) widen locally.
 
 pub mod aabb;
+pub mod dual;
 pub mod real;
 pub mod rng;
 pub mod sampling;
 
 pub use aabb::{slab4, slab4_distances, Aabb, SLAB_EXIT_SCALE};
-pub use real::{Real, V3};
+pub use dual::Dual;
+pub use real::{RayR, Real, M3, V3};
 pub use rng::SplitMix64;
 pub use sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle};
 
@@ -69,21 +71,47 @@ pub fn refract(i: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
 /// Orthonormal frame (right-handed) around a unit vector `n`, after Duff et
 /// al. 2017, "Building an Orthonormal Basis, Revisited" (branch-free).
 pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
+    let (t, b) = orthonormal_basis_r(V3::from(n));
+    (t.into(), b.into())
+}
+
+/// [`orthonormal_basis`] over [`Real`]: the frame turns with `n` (the
+/// branch on the sign of n.z is taken on its value).
+#[inline]
+pub fn orthonormal_basis_r<R: Real>(n: V3<R>) -> (V3<R>, V3<R>) {
+    let sign = R::from_f32(1.0f32.copysign(n.z.value()));
+    let one = R::one();
+    let a = -one / (sign + n.z);
     let b = n.x * n.y * a;
     (
-        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+        V3::new(one + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        V3::new(b, sign + n.y * n.y * a, -n.y),
     )
 }
 
 /// Rotation from Euler angles in degrees, applied about x, then y, then z
 /// (R = Rz·Ry·Rx): the convention of the scene files.
+/// The formula is [`M3::rotation_xyz_degrees`], written once over [`Real`]
+/// so that rotations can be differentiated.
 pub fn rotation_xyz_degrees(deg: Vec3) -> Mat3 {
-    Mat3::from_rotation_z(deg.z.to_radians())
-        * Mat3::from_rotation_y(deg.y.to_radians())
-        * Mat3::from_rotation_x(deg.x.to_radians())
+    let m = M3::<f32>::rotation_xyz_degrees(deg.into());
+    Mat3::from_cols(m.rows[0].into(), m.rows[1].into(), m.rows[2].into()).transpose()
+}
+
+/// Percentiles (given in [0, 100]) of `values`, by nearest rank.
+pub fn percentiles(values: &mut [f64], which: &[f64]) -> Vec<f64> {
+    values.sort_by(f64::total_cmp);
+    which
+        .iter()
+        .map(|&q| {
+            if values.is_empty() {
+                f64::NAN
+            } else {
+                let k = ((q / 100.0) * (values.len() - 1) as f64).round() as usize;
+                values[k.min(values.len() - 1)]
+            }
+        })
+        .collect()
 }
 
 /// The sRGB transfer function (IEC 61966-2-1) for one linear value in [0, 1].

@@ -39,6 +39,13 @@ pub trait Real:
     fn sqrt(self) -> Self;
     /// `self` raised to a constant exponent.
     fn powf(self, e: f32) -> Self;
+    /// `self` raised to the power `e`, both variable (a Phong exponent that
+    /// is itself a parameter). For `self` ≤ 0 only the base's derivative is
+    /// kept (ln of a non-positive number has none).
+    fn pow(self, e: Self) -> Self;
+    fn sin(self) -> Self;
+    fn cos(self) -> Self;
+    fn tan(self) -> Self;
 
     #[inline(always)]
     fn zero() -> Self {
@@ -47,6 +54,21 @@ pub trait Real:
     #[inline(always)]
     fn one() -> Self {
         Self::from_f32(1.0)
+    }
+    /// |self|, deciding the sign by value.
+    #[inline(always)]
+    fn abs(self) -> Self {
+        if self.value() < 0.0 {
+            -self
+        } else {
+            self
+        }
+    }
+    /// The value without its derivatives (a discrete choice's probability,
+    /// which the derivative of an estimator must not differentiate).
+    #[inline(always)]
+    fn detach(self) -> Self {
+        Self::from_f32(self.value())
     }
     /// The larger of the two by value (`f32::max`'s rule: a NaN loses).
     #[inline(always)]
@@ -84,6 +106,26 @@ impl Real for f32 {
     #[inline(always)]
     fn powf(self, e: f32) -> Self {
         f32::powf(self, e)
+    }
+    #[inline(always)]
+    fn pow(self, e: Self) -> Self {
+        f32::powf(self, e)
+    }
+    #[inline(always)]
+    fn sin(self) -> Self {
+        f32::sin(self)
+    }
+    #[inline(always)]
+    fn cos(self) -> Self {
+        f32::cos(self)
+    }
+    #[inline(always)]
+    fn tan(self) -> Self {
+        f32::tan(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32::abs(self)
     }
     #[inline(always)]
     fn max(self, o: Self) -> Self {
@@ -156,6 +198,113 @@ impl<R: Real> V3<R> {
     #[inline(always)]
     pub fn mul_elem(self, o: Self) -> Self {
         Self::new(self.x * o.x, self.y * o.y, self.z * o.z)
+    }
+    /// Component `i` (0 = x).
+    #[inline(always)]
+    pub fn get(self, i: usize) -> R {
+        [self.x, self.y, self.z][i]
+    }
+    /// Each component clamped to [lo, hi] by value (glam's `clamp`:
+    /// max, then min).
+    #[inline(always)]
+    pub fn clamp(self, lo: f32, hi: f32) -> Self {
+        let c = |v: R| v.max(R::from_f32(lo)).min(R::from_f32(hi));
+        Self::new(c(self.x), c(self.y), c(self.z))
+    }
+}
+
+/// A ray whose origin and direction are [`Real`]s: the camera ray and the
+/// rays spawned at hits, as functions of the scene's parameters.
+/// Traversal only ever sees [`RayR::value`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayR<R> {
+    pub origin: V3<R>,
+    pub dir: V3<R>,
+}
+
+impl<R: Real> RayR<R> {
+    #[inline(always)]
+    pub fn new(origin: V3<R>, dir: V3<R>) -> Self {
+        Self { origin, dir }
+    }
+    /// The `f32` ray that traversal tests.
+    #[inline(always)]
+    pub fn value(&self) -> super::Ray {
+        super::Ray::new(self.origin.value(), self.dir.value())
+    }
+    /// The point at parameter `t`.
+    #[inline(always)]
+    pub fn at(&self, t: R) -> V3<R> {
+        self.origin + self.dir * t
+    }
+}
+
+impl From<super::Ray> for RayR<f32> {
+    #[inline(always)]
+    fn from(r: super::Ray) -> Self {
+        Self::new(r.origin.into(), r.dir.into())
+    }
+}
+
+/// A 3×3 matrix of [`Real`]s, stored by rows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct M3<R> {
+    pub rows: [V3<R>; 3],
+}
+
+impl<R: Real> M3<R> {
+    #[inline(always)]
+    pub fn from_rows(r0: V3<R>, r1: V3<R>, r2: V3<R>) -> Self {
+        Self { rows: [r0, r1, r2] }
+    }
+    /// diag(d).
+    pub fn diagonal(d: V3<R>) -> Self {
+        let z = R::zero();
+        Self::from_rows(V3::new(d.x, z, z), V3::new(z, d.y, z), V3::new(z, z, d.z))
+    }
+    pub fn transpose(&self) -> Self {
+        let [a, b, c] = self.rows;
+        Self::from_rows(
+            V3::new(a.x, b.x, c.x),
+            V3::new(a.y, b.y, c.y),
+            V3::new(a.z, b.z, c.z),
+        )
+    }
+    /// M·v.
+    #[inline(always)]
+    pub fn mul_vec(&self, v: V3<R>) -> V3<R> {
+        V3::new(
+            self.rows[0].dot(v),
+            self.rows[1].dot(v),
+            self.rows[2].dot(v),
+        )
+    }
+    /// M·N.
+    pub fn mul_mat(&self, o: &Self) -> Self {
+        let t = o.transpose();
+        let row = |r: V3<R>| V3::new(r.dot(t.rows[0]), r.dot(t.rows[1]), r.dot(t.rows[2]));
+        Self::from_rows(row(self.rows[0]), row(self.rows[1]), row(self.rows[2]))
+    }
+    /// Rotation from Euler angles in degrees, about x, then y, then z
+    /// (R = Rz·Ry·Rx): the convention of the scene files.
+    pub fn rotation_xyz_degrees(deg: V3<R>) -> Self {
+        let rad = R::from_f32(std::f32::consts::PI / 180.0);
+        let (z, o) = (R::zero(), R::one());
+        let (sx, cx) = ((deg.x * rad).sin(), (deg.x * rad).cos());
+        let (sy, cy) = ((deg.y * rad).sin(), (deg.y * rad).cos());
+        let (sz, cz) = ((deg.z * rad).sin(), (deg.z * rad).cos());
+        let rx = Self::from_rows(V3::new(o, z, z), V3::new(z, cx, -sx), V3::new(z, sx, cx));
+        let ry = Self::from_rows(V3::new(cy, z, sy), V3::new(z, o, z), V3::new(-sy, z, cy));
+        let rz = Self::from_rows(V3::new(cz, -sz, z), V3::new(sz, cz, z), V3::new(z, z, o));
+        rz.mul_mat(&ry).mul_mat(&rx)
+    }
+    /// A constant matrix (no derivatives).
+    pub fn from_mat3(m: glam::Mat3) -> Self {
+        Self::from_rows(
+            V3::from_vec3(m.row(0)),
+            V3::from_vec3(m.row(1)),
+            V3::from_vec3(m.row(2)),
+        )
     }
 }
 

@@ -15,6 +15,7 @@
 
 pub mod diff;
 pub mod experiment;
+pub mod grad;
 pub mod render;
 pub mod spectrum;
 pub mod stats;

@@ -7,12 +7,14 @@
 pub mod arrays;
 pub mod ellipsoid;
 pub mod plane;
+pub mod smooth;
 pub mod sphere;
 pub mod triangle;
 
 pub use arrays::{PrimArrays, PrimKind, PrimRef, Slot};
 pub use ellipsoid::Ellipsoid;
 pub use plane::Plane;
+pub use smooth::{HitR, ShapeR};
 pub use sphere::Sphere;
 pub use triangle::Triangle;
 
@@ -121,13 +123,7 @@ impl Hit {
     /// offset by [`OFFSET_SCALE`] to the side `dir` points to.
     #[inline]
     pub fn spawn_origin(&self, dir: Vec3) -> Vec3 {
-        let eps = OFFSET_SCALE * crate::math::max_abs(self.point).max(1.0);
-        let n = self.geometric_normal;
-        if n.dot(dir) >= 0.0 {
-            self.point + eps * n
-        } else {
-            self.point - eps * n
-        }
+        HitR::from(*self).spawn_origin(dir.into()).into()
     }
 
     /// The shadow segment from the hit towards `target` (`dir` is the unit

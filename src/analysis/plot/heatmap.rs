@@ -39,6 +39,10 @@ pub struct Heatmap {
     /// frequencies for a spectrum); `None` numbers cells from 0 at the
     /// left and top edges.
     pub extent: Option<[f64; 4]>,
+    /// The values the colour bar spans (before a log scale), when not the
+    /// data's own range: values beyond it take the end colours (a robust
+    /// range that fireflies do not wash out).
+    pub range: Option<(f64, f64)>,
 }
 
 impl Heatmap {
@@ -53,7 +57,31 @@ impl Heatmap {
             x_label: "pixel x".into(),
             y_label: "pixel y".into(),
             extent: None,
+            range: None,
         }
+    }
+
+    /// A signed per-pixel field (`values` row-major, `width` × `height`,
+    /// row 0 at the top) on the [`Palette::Diverging`] scale, symmetric about
+    /// 0 and spanning the 99.5th percentile of |value|: the few pixels
+    /// beyond it (Monte Carlo fireflies) take the end colours rather than
+    /// washing the rest out.
+    pub fn signed(title: impl Into<String>, values: &[f32], width: u32, height: u32) -> Self {
+        let data = Array2::from_shape_fn((height as usize, width as usize), |(y, x)| {
+            f64::from(values[y * width as usize + x])
+        });
+        let mut abs: Vec<f64> = values
+            .iter()
+            .map(|&v| f64::from(v).abs())
+            .filter(|v| v.is_finite())
+            .collect();
+        let m = crate::math::percentiles(&mut abs, &[99.5])[0];
+        let mut map = Self::new(title, data);
+        map.palette = Palette::Diverging;
+        if m.is_finite() && m > 0.0 {
+            map.range = Some((-m, m));
+        }
+        map
     }
 
     /// Write `stem.png` and `stem.svg`. Fails when the data is empty, or
@@ -121,8 +149,20 @@ impl Figure for Heatmap {
                 " (all are NaN or infinite)"
             }
         );
-        let vmin = us.iter().copied().fold(f64::INFINITY, f64::min);
-        let vmax = us.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let mut vmin = us.iter().copied().fold(f64::INFINITY, f64::min);
+        let mut vmax = us.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if let Some((lo, hi)) = self.range {
+            if let (Some(lo), Some(hi)) = (to_plot(scale, lo), to_plot(scale, hi)) {
+                (vmin, vmax) = (lo, hi);
+            }
+        }
+        if self.palette == Palette::Diverging && !self.log_scale {
+            // Symmetric about 0, so that white is 0 (an all-zero field
+            // gets [−1, 1]).
+            let m = vmin.abs().max(vmax.abs());
+            let m = if m > 0.0 { m } else { 1.0 };
+            (vmin, vmax) = (-m, m);
+        }
         // The colour bar spans exactly the data (full contrast); a constant
         // field gets a unit-wide window around its value.
         let bar_axis = Axis::fit(scale, &[vmin, vmax], 0.0, false);

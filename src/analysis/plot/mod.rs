@@ -132,6 +132,36 @@ pub enum Palette {
     Viridis,
     /// Magma, the map ꟻLIP uses for its error maps.
     Magma,
+    /// Blue (negative), white (zero), red (positive): ColorBrewer's RdBu
+    /// (Brewer 2002), for signed fields such as derivatives. A heatmap
+    /// with this palette centres its scale on 0, symmetric, so white is 0
+    /// and equal colours on both sides are equal magnitudes.
+    Diverging,
+}
+
+/// ColorBrewer RdBu at nine points, blue to red (the published order
+/// reversed so that low values are blue).
+const RDBU_STOPS: [[u8; 3]; 9] = [
+    [0x21, 0x66, 0xAC],
+    [0x43, 0x93, 0xC3],
+    [0x92, 0xC5, 0xDE],
+    [0xD1, 0xE5, 0xF0],
+    [0xF7, 0xF7, 0xF7],
+    [0xFD, 0xDB, 0xC7],
+    [0xF4, 0xA5, 0x82],
+    [0xD6, 0x60, 0x4D],
+    [0xB2, 0x18, 0x2B],
+];
+
+/// Linear interpolation in sRGB between equally spaced stops.
+fn interpolate(stops: &[[u8; 3]], t: f64) -> [u8; 3] {
+    let s = t * (stops.len() - 1) as f64;
+    let i = (s.floor() as usize).min(stops.len() - 2);
+    let f = s - i as f64;
+    let (a, b) = (stops[i], stops[i + 1]);
+    std::array::from_fn(|c| {
+        (f64::from(a[c]) + f * (f64::from(b[c]) - f64::from(a[c]))).round() as u8
+    })
 }
 
 /// Viridis at nine equally spaced points, as published by the viridisLite R
@@ -160,15 +190,8 @@ impl Palette {
     pub fn colour(self, t: f64) -> [u8; 3] {
         let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
         match self {
-            Palette::Viridis => {
-                let s = t * (VIRIDIS_STOPS.len() - 1) as f64;
-                let i = (s.floor() as usize).min(VIRIDIS_STOPS.len() - 2);
-                let f = s - i as f64;
-                let (a, b) = (VIRIDIS_STOPS[i], VIRIDIS_STOPS[i + 1]);
-                std::array::from_fn(|c| {
-                    (f64::from(a[c]) + f * (f64::from(b[c]) - f64::from(a[c]))).round() as u8
-                })
-            }
+            Palette::Viridis => interpolate(&VIRIDIS_STOPS, t),
+            Palette::Diverging => interpolate(&RDBU_STOPS, t),
             Palette::Magma => {
                 let table = magma_table();
                 let n = table.len() / 3;

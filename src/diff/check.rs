@@ -1,0 +1,375 @@
+//! Finite differences, the check of the derivatives, written once.
+//!
+//! The central difference (I(p + h) − I(p − h)) / 2h comes from two
+//! ordinary `f32` renders of the scene file with the parameter's *text*
+//! changed, reloaded by the scene loader: it shares no code with the dual
+//! numbers beyond the renderer itself. Both renders use the scene's seed
+//! (common random numbers), so their noise largely cancels in the
+//! difference.
+//!
+//! **The step.** The central difference's error is about
+//! h²·|I‴|/6 (truncation) + ε·|I|/h (round-off of the two renders, ε the
+//! `f32` unit round-off 2⁻²³), smallest at h ≈ (3ε|I|/|I‴|)^⅓. Taking the
+//! parameter's own size as the scale on which I varies (|I|/|I‴| ≈ p²,
+//! at least 1), the rule is h = ε^⅓ · max(|p|, 1) ≈ 4.9e-3 · max(|p|, 1)
+//! ([`default_step`]). The step actually used is the one the `f32` file
+//! values realise, ((p + h) − (p − h))/2 after rounding to `f32`.
+//!
+//! **Edges.** Away from edges the image is smooth in the parameter and the
+//! difference converges to the interior derivative; at silhouettes and
+//! shadow or refraction boundaries it sees the boundary move, which forward
+//! mode does not. [`edge_mask`] flags those pixels (by comparing the
+//! differences at h and h/2, see there) so that the per-pixel comparison
+//! can leave them out.
+
+use super::params::{field_values, Entity, Param};
+use super::render::Gradients;
+use crate::film::LinearImage;
+use crate::integrator::IntegratorKind;
+use crate::io::scene_file::{parse_scene, Overrides, SceneFile};
+use crate::scene::Scene;
+use crate::stats::NoStats;
+use glam::Vec2;
+use std::path::Path;
+
+/// The default step of the central difference for `p` (module docs).
+pub fn default_step(p: &Param) -> f32 {
+    f32::EPSILON.cbrt() * p.value.abs().max(1.0)
+}
+
+/// The scene file's text with parameter `p` set to `value` (the other
+/// components of its field kept, defaults written out).
+pub fn scene_text_with(
+    text: &str,
+    file: &SceneFile,
+    p: &Param,
+    value: f32,
+) -> Result<String, String> {
+    let mut table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
+    let mut values = field_values(file, p.entity, p.field)?;
+    values[p.component] = value;
+    let num = |v: f32| toml::Value::Float(f64::from(v));
+    let new = match values.len() {
+        1 => num(values[0]),
+        3 => toml::Value::Array(values.iter().map(|&v| num(v)).collect()),
+        _ => toml::Value::Array(
+            values
+                .chunks(3)
+                .map(|c| toml::Value::Array(c.iter().map(|&v| num(v)).collect()))
+                .collect(),
+        ),
+    };
+    let missing = |what: &str| format!("the scene file has no {what}");
+    let section: &mut toml::Table = match p.entity {
+        Entity::Camera => table
+            .get_mut("camera")
+            .and_then(|v| v.as_table_mut())
+            .ok_or_else(|| missing("[camera]"))?,
+        Entity::Render => table
+            .entry("render")
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+            .as_table_mut()
+            .ok_or_else(|| missing("[render] table"))?,
+        Entity::Material(i) => {
+            let name = file
+                .materials
+                .keys()
+                .nth(i as usize)
+                .ok_or_else(|| missing("such material"))?;
+            table
+                .get_mut("materials")
+                .and_then(|m| m.get_mut(name.as_str()))
+                .and_then(|v| v.as_table_mut())
+                .ok_or_else(|| missing(&format!("[materials.{name}]")))?
+        }
+        Entity::Sphere(i)
+        | Entity::Ellipsoid(i)
+        | Entity::Plane(i)
+        | Entity::Triangle(i)
+        | Entity::Mesh(i)
+        | Entity::Light(i) => {
+            let key = match p.entity {
+                Entity::Sphere(_) => "sphere",
+                Entity::Ellipsoid(_) => "ellipsoid",
+                Entity::Plane(_) => "plane",
+                Entity::Triangle(_) => "triangle",
+                Entity::Mesh(_) => "mesh",
+                _ => "light",
+            };
+            table
+                .get_mut(key)
+                .and_then(|a| a.get_mut(i as usize))
+                .and_then(|v| v.as_table_mut())
+                .ok_or_else(|| missing(&format!("{key}[{i}]")))?
+        }
+    };
+    section.insert(p.field.to_string(), new);
+    toml::to_string(&table).map_err(|e| e.to_string())
+}
+
+/// A central difference of one parameter.
+#[derive(Clone, Debug)]
+pub struct Difference {
+    /// The step realised by the `f32` file values.
+    pub h: f32,
+    /// (I(p + h) − I(p − h)) / 2h per pixel and channel (row-major RGB).
+    pub per_pixel: Vec<f32>,
+    /// The same with half the step, for [`edge_mask`]'s smoothness test.
+    pub per_pixel_half: Vec<f32>,
+    /// The image I(p) itself, for the round-off bound.
+    pub image: Vec<f32>,
+    /// The difference of the image mean, with step h.
+    pub image_mean: f64,
+    /// The scenes at p + h and p − h, for [`edge_mask`].
+    pub scenes: [Scene; 2],
+}
+
+/// Render the central difference of the image in `p` with step `h` (the
+/// scene at `path`, whose text is `text`, rendered with `overrides` and
+/// `integrator` on `threads` threads): renders at p ± h and p ± h/2, and
+/// the image at p.
+#[allow(clippy::too_many_arguments)]
+pub fn central_difference(
+    path: &Path,
+    text: &str,
+    file: &SceneFile,
+    overrides: &Overrides,
+    p: &Param,
+    h: f32,
+    integrator: IntegratorKind,
+    threads: Option<usize>,
+) -> Result<Difference, String> {
+    let load = |v: f32| -> Result<(Scene, f32), String> {
+        let t = scene_text_with(text, file, p, v)?;
+        let scene =
+            parse_scene(&t, path, overrides).map_err(|e| format!("{} set to {v}: {e}", p.name))?;
+        Ok((scene, v))
+    };
+    let render = |s: &Scene| -> Result<LinearImage, String> {
+        let (film, _) = integrator.render::<NoStats>(s, threads)?;
+        Ok(film.image())
+    };
+    type Step = (Vec<f32>, f64, [Scene; 2], f32);
+    let difference = |step: f32| -> Result<Step, String> {
+        let (plus, vp) = load(p.value + step)?;
+        let (minus, vm) = load(p.value - step)?;
+        let h_eff = 0.5 * (vp - vm);
+        if h_eff <= 0.0 {
+            return Err(format!(
+                "step {step} is too small for `{}` = {} in f32",
+                p.name, p.value
+            ));
+        }
+        let (ip, im) = (render(&plus)?, render(&minus)?);
+        let per_pixel = ip
+            .iter()
+            .zip(im.iter())
+            .map(|(a, b)| (a - b) / (2.0 * h_eff))
+            .collect();
+        let mean =
+            |img: &LinearImage| img.iter().map(|&x| f64::from(x)).sum::<f64>() / img.len() as f64;
+        let d = (mean(&ip) - mean(&im)) / (2.0 * f64::from(h_eff));
+        Ok((per_pixel, d, [plus, minus], h_eff))
+    };
+    let (per_pixel, image_mean, scenes, h_eff) = difference(h)?;
+    let (per_pixel_half, _, _, _) = difference(0.5 * h)?;
+    let (base, _) = load(p.value)?;
+    let image = render(&base)?.iter().copied().collect();
+    Ok(Difference {
+        h: h_eff,
+        per_pixel,
+        per_pixel_half,
+        image,
+        image_mean,
+        scenes,
+    })
+}
+
+/// Pixels where the image is not smooth in the parameter, row-major.
+///
+/// A pixel is flagged when the central differences with steps h and h/2
+/// disagree by more than 5% of the larger, plus 1% of the image's mean
+/// |difference|, plus eight times the round-off bound 2ε·|I|/h (ε the f32
+/// unit round-off): in smooth parts they differ by O(h²), while a boundary
+/// that crosses the pixel's samples within ±h contributes a jump/2h to one
+/// and jump/h or nothing to the other. This finds silhouettes, shadow
+/// edges, and edges seen in mirrors or through glass alike. A pixel is
+/// also flagged when the object its camera-ray samples hit first is not
+/// the same for all of them, differs from a neighbour's, or changes
+/// between `scenes` (the scene and its two displaced copies): silhouettes
+/// that a smooth-looking difference can hide. The flags are then widened
+/// by one pixel.
+pub fn edge_mask(scenes: &[&Scene], fd: &Difference) -> Vec<bool> {
+    let cam = &scenes[0].camera;
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let mut edge = vec![false; w * h];
+    let grey = |v: &[f32], i: usize| (v[3 * i] + v[3 * i + 1] + v[3 * i + 2]) / 3.0;
+    let scale = (0..w * h)
+        .map(|i| grey(&fd.per_pixel, i).abs())
+        .sum::<f32>()
+        / (w * h).max(1) as f32;
+    for (i, e) in edge.iter_mut().enumerate() {
+        for c in 0..3 {
+            let (a, b) = (fd.per_pixel[3 * i + c], fd.per_pixel_half[3 * i + c]);
+            let roundoff = 2.0 * f32::EPSILON * fd.image[3 * i + c].abs().max(1e-3) / fd.h;
+            if (a - b).abs() > 0.05 * a.abs().max(b.abs()) + 0.01 * scale + 8.0 * roundoff {
+                *e = true;
+            }
+        }
+    }
+    let mut first = vec![u32::MAX; w * h];
+    for (si, scene) in scenes.iter().enumerate() {
+        let sampler = scene.settings.sampler;
+        let seed = scene.settings.seed;
+        let mut ids = vec![u32::MAX; w * h];
+        for py in 0..h {
+            for px in 0..w {
+                let mut id = None;
+                for index in 0..sampler.spp() {
+                    let off = sampler.sample(px as u32, py as u32, index, seed);
+                    let pos = Vec2::new(px as f32, py as f32) + off;
+                    let ray = scene.camera.generate_ray(pos.x, pos.y);
+                    let o = scene
+                        .intersect(&ray, scene.settings.max_distance, &mut NoStats)
+                        .map_or(u32::MAX - 1, |hit| hit.object);
+                    match id {
+                        None => id = Some(o),
+                        Some(i) if i != o => edge[py * w + px] = true,
+                        _ => {}
+                    }
+                }
+                ids[py * w + px] = id.unwrap_or(u32::MAX - 1);
+            }
+        }
+        for i in 0..w * h {
+            if si == 0 {
+                first[i] = ids[i];
+            } else if first[i] != ids[i] {
+                edge[i] = true;
+            }
+        }
+        for py in 0..h {
+            for px in 0..w {
+                let i = py * w + px;
+                if (px + 1 < w && ids[i] != ids[i + 1]) || (py + 1 < h && ids[i] != ids[i + w]) {
+                    edge[i] = true;
+                    edge[if px + 1 < w && ids[i] != ids[i + 1] {
+                        i + 1
+                    } else {
+                        i + w
+                    }] = true;
+                }
+            }
+        }
+    }
+    // Widen by one pixel.
+    let mut wide = edge.clone();
+    for py in 0..h {
+        for px in 0..w {
+            if edge[py * w + px] {
+                for (dx, dy) in [
+                    (-1i64, 0i64),
+                    (1, 0),
+                    (0, -1),
+                    (0, 1),
+                    (-1, -1),
+                    (1, 1),
+                    (-1, 1),
+                    (1, -1),
+                ] {
+                    let (x, y) = (px as i64 + dx, py as i64 + dy);
+                    if x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h {
+                        wide[y as usize * w + x as usize] = true;
+                    }
+                }
+            }
+        }
+    }
+    wide
+}
+
+/// How forward mode and the central difference compare for one parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Comparison {
+    /// The image mean's derivative by AD and by the difference.
+    pub ad_mean: f64,
+    pub fd_mean: f64,
+    /// |AD − FD| / |FD| of the image mean (∞ when FD is 0 and AD is not).
+    pub mean_rel_error: f64,
+    /// The step used.
+    pub h: f32,
+    /// Share of pixels flagged as near an edge.
+    pub edge_fraction: f64,
+    /// 50th, 90th and 99th percentiles, over the pixels away from edges
+    /// whose derivative is not 0 by both estimates, of |AD − FD| (channel
+    /// mean) divided by those pixels' mean |FD| (NaN when there are none).
+    pub interior_error: [f64; 3],
+    /// AD − FD per pixel (channel mean), row-major.
+    pub difference: Vec<f32>,
+}
+
+/// Compare the AD channel-mean image `ad_grey` and image-mean derivative
+/// `ad_mean` with the difference `fd`, leaving out pixels in `edges`.
+pub fn compare(ad_grey: &[f32], ad_mean: f64, fd: &Difference, edges: &[bool]) -> Comparison {
+    let fd_grey: Vec<f32> = fd
+        .per_pixel
+        .chunks_exact(3)
+        .map(|c| (c[0] + c[1] + c[2]) / 3.0)
+        .collect();
+    let difference: Vec<f32> = ad_grey.iter().zip(&fd_grey).map(|(a, f)| a - f).collect();
+    // Interior pixels the parameter affects (by either estimate).
+    let interior: Vec<usize> = (0..edges.len())
+        .filter(|&i| !edges[i] && (ad_grey[i] != 0.0 || fd_grey[i] != 0.0))
+        .collect();
+    let scale = interior
+        .iter()
+        .map(|&i| f64::from(fd_grey[i]).abs())
+        .sum::<f64>()
+        / interior.len().max(1) as f64;
+    let mut errs: Vec<f64> = interior
+        .iter()
+        .map(|&i| f64::from(difference[i]).abs() / scale.max(f64::MIN_POSITIVE))
+        .collect();
+    let p = crate::math::percentiles(&mut errs, &[50.0, 90.0, 99.0]);
+    let mean_rel_error = if fd.image_mean == 0.0 {
+        if ad_mean == 0.0 {
+            0.0
+        } else {
+            f64::INFINITY
+        }
+    } else {
+        (ad_mean - fd.image_mean).abs() / fd.image_mean.abs()
+    };
+    Comparison {
+        ad_mean,
+        fd_mean: fd.image_mean,
+        mean_rel_error,
+        h: fd.h,
+        edge_fraction: edges.iter().filter(|&&e| e).count() as f64 / edges.len().max(1) as f64,
+        interior_error: [p[0], p[1], p[2]],
+        difference,
+    }
+}
+
+/// The whole check of parameter `g.params[i]`: the central difference with
+/// step `h` ([`central_difference`]), the [`edge_mask`] and the
+/// [`compare`]son with the AD images `g` of `scene` (loaded from `path`,
+/// whose text is `text`, with `overrides`).
+#[allow(clippy::too_many_arguments)]
+pub fn check_param(
+    path: &Path,
+    text: &str,
+    file: &SceneFile,
+    overrides: &Overrides,
+    scene: &Scene,
+    g: &Gradients,
+    i: usize,
+    h: f32,
+    integrator: IntegratorKind,
+    threads: Option<usize>,
+) -> Result<Comparison, String> {
+    let p = &g.params[i];
+    let fd = central_difference(path, text, file, overrides, p, h, integrator, threads)?;
+    let edges = edge_mask(&[scene, &fd.scenes[0], &fd.scenes[1]], &fd);
+    Ok(compare(&g.grey(i), g.image_mean(i).0, &fd, &edges))
+}

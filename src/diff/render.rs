@@ -1,0 +1,263 @@
+//! The gradient render: every pixel's derivative with respect to each
+//! parameter, by forward-mode differentiation of the same estimator the
+//! `f32` render computes.
+//!
+//! For each sample of each pixel the camera ray, the hits, the shading and
+//! the light samples are evaluated on `Dual<K>` through a
+//! [`DualScene`]; traversal and every discrete decision (which primitive,
+//! which light, whether a shadow ray is blocked, total internal reflection,
+//! Russian roulette) are taken on values, exactly as in the `f32` render,
+//! and the random numbers are the render's own (same seed, same per-pixel
+//! streams). The per-pixel result is the mean of the samples' derivatives,
+//! with its sample variance: the derivative of the pixel estimator, an
+//! unbiased estimate of the *interior* derivative (see [`super`]).
+//!
+//! Parameters are taken K at a time with K ∈ {1, 2, 4, 8, 16} (the smallest
+//! that holds them); more than 16 run in several passes.
+
+use super::params::Param;
+use super::view::DualScene;
+use crate::film::Filter;
+use crate::integrator::path::NoEnd;
+use crate::integrator::{in_pool, IntegratorKind, SampleContext, Whitted};
+use crate::io::scene_file::SceneFile;
+use crate::math::{Real, V3};
+use crate::sampler::Sampler;
+use crate::scene::{Scene, View};
+use crate::stats::NoStats;
+use glam::Vec2;
+use rayon::prelude::*;
+use std::path::Path;
+
+/// The most parameters one pass carries.
+pub const MAX_K: usize = 16;
+
+/// Per-pixel derivatives of an image with respect to some parameters.
+#[derive(Clone, Debug)]
+pub struct Gradients {
+    pub width: u32,
+    pub height: u32,
+    pub params: Vec<Param>,
+    /// Per parameter, per pixel and channel (row-major, RGB interleaved):
+    /// the mean over the pixel's samples of ∂sample/∂param.
+    pub mean: Vec<Vec<f32>>,
+    /// The same layout: the unbiased sample variance of ∂sample/∂param
+    /// (divide by `count` for the variance of the pixel's mean).
+    pub variance: Vec<Vec<f32>>,
+    /// Per parameter, per pixel: the sample variance of the derivative of
+    /// the sample's channel mean (R+G+B)/3, for the standard error of the
+    /// image mean's derivative.
+    pub variance_grey: Vec<Vec<f32>>,
+    /// Samples per pixel.
+    pub count: u32,
+}
+
+impl Gradients {
+    /// The derivative of the image mean (over pixels and channels) with
+    /// respect to parameter `i`, and its standard error (pixels are
+    /// independent; the channels of one pixel are not, hence the grey
+    /// variance).
+    pub fn image_mean(&self, i: usize) -> (f64, f64) {
+        let n = (self.width * self.height) as f64;
+        let mean = self.mean[i].iter().map(|&x| f64::from(x)).sum::<f64>() / (3.0 * n);
+        let var: f64 = self.variance_grey[i]
+            .iter()
+            .map(|&v| f64::from(v))
+            .sum::<f64>()
+            / f64::from(self.count.max(1));
+        (mean, var.sqrt() / n)
+    }
+
+    /// Parameter `i`'s derivative per pixel, averaged over the channels.
+    pub fn grey(&self, i: usize) -> Vec<f32> {
+        self.mean[i]
+            .chunks_exact(3)
+            .map(|c| (c[0] + c[1] + c[2]) / 3.0)
+            .collect()
+    }
+}
+
+/// Check that `integrator` and the scene's sampler and filter are ones the
+/// gradient render supports.
+pub fn check_supported(scene: &Scene, integrator: &IntegratorKind) -> Result<(), String> {
+    if let IntegratorKind::FloodFill(_) = integrator {
+        return Err(
+            "the gradient render supports `whitted`, `direct` and `path:K`; flood fill's cache \
+             is not differentiated"
+                .into(),
+        );
+    }
+    if let Sampler::Adaptive { .. } = scene.settings.sampler {
+        return Err(
+            "the gradient render needs a fixed sampler (adaptive sampling decides its sample \
+             count from the image)"
+                .into(),
+        );
+    }
+    if scene.settings.filter != Filter::Box {
+        return Err(format!(
+            "the gradient render averages each pixel's samples (the box filter); the scene \
+             asks for `{}`: use `--filter box`",
+            scene.settings.filter.name()
+        ));
+    }
+    Ok(())
+}
+
+/// Render the derivatives of `scene` (loaded from `file`, read from `path`)
+/// with respect to `params` with `integrator`, on `threads` threads (`None`:
+/// all cores). The result is the same on any number of threads.
+pub fn render_gradients(
+    scene: &Scene,
+    file: &SceneFile,
+    path: &Path,
+    params: &[Param],
+    integrator: IntegratorKind,
+    threads: Option<usize>,
+) -> Result<Gradients, String> {
+    check_supported(scene, &integrator)?;
+    let cam = &scene.camera;
+    let mut out = Gradients {
+        width: cam.width,
+        height: cam.height,
+        params: params.to_vec(),
+        mean: Vec::new(),
+        variance: Vec::new(),
+        variance_grey: Vec::new(),
+        count: scene.settings.sampler.spp(),
+    };
+    for chunk in params.chunks(MAX_K) {
+        let part = match chunk.len() {
+            1 => pass::<1>(scene, file, path, chunk, integrator, threads)?,
+            2 => pass::<2>(scene, file, path, chunk, integrator, threads)?,
+            3 | 4 => pass::<4>(scene, file, path, chunk, integrator, threads)?,
+            5..=8 => pass::<8>(scene, file, path, chunk, integrator, threads)?,
+            _ => pass::<16>(scene, file, path, chunk, integrator, threads)?,
+        };
+        out.mean.extend(part.0);
+        out.variance.extend(part.1);
+        out.variance_grey.extend(part.2);
+    }
+    Ok(out)
+}
+
+type Planes = (Vec<Vec<f32>>, Vec<Vec<f32>>, Vec<Vec<f32>>);
+
+/// Running sums of one pixel's samples' partials.
+struct PixelSums<const K: usize> {
+    s1: [[f64; 3]; K],
+    s2: [[f64; 3]; K],
+    g2: [f64; K],
+}
+
+/// One pass with K-wide duals for `params` (≤ K of them).
+fn pass<const K: usize>(
+    scene: &Scene,
+    file: &SceneFile,
+    path: &Path,
+    params: &[Param],
+    integrator: IntegratorKind,
+    threads: Option<usize>,
+) -> Result<Planes, String> {
+    let view = DualScene::<K>::new(scene, file, path, params)?;
+    let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
+    let sampler = scene.settings.sampler;
+    let seed = scene.settings.seed;
+    let spp = sampler.spp();
+    let n = params.len();
+    // Per row: for each pixel, (mean, variance, grey variance) per param.
+    let rows: Vec<Vec<[f32; 7]>> = in_pool(threads, || {
+        (0..h)
+            .into_par_iter()
+            .map(|py| {
+                let mut row = Vec::with_capacity(w * n);
+                for px in 0..w {
+                    let mut sums = PixelSums::<K> {
+                        s1: [[0.0; 3]; K],
+                        s2: [[0.0; 3]; K],
+                        g2: [0.0; K],
+                    };
+                    for index in 0..spp {
+                        let (px, py) = (px as u32, py as u32);
+                        let off = sampler.sample(px, py, index, seed);
+                        let pos = Vec2::new(px as f32, py as f32) + off;
+                        let ray = view.camera_ray(pos.x, pos.y);
+                        let ctx = SampleContext {
+                            px,
+                            py,
+                            index,
+                            seed,
+                        };
+                        let v = radiance(&view, &integrator, &ray, &ctx);
+                        for k in 0..n {
+                            let d = [v.x.d[k], v.y.d[k], v.z.d[k]].map(f64::from);
+                            for (c, &dc) in d.iter().enumerate() {
+                                sums.s1[k][c] += dc;
+                                sums.s2[k][c] += dc * dc;
+                            }
+                            let g = (d[0] + d[1] + d[2]) / 3.0;
+                            sums.g2[k] += g * g;
+                        }
+                    }
+                    let m = f64::from(spp);
+                    let var = |s1: f64, s2: f64| {
+                        if spp > 1 {
+                            ((s2 - s1 * s1 / m) / (m - 1.0)).max(0.0) as f32
+                        } else {
+                            0.0
+                        }
+                    };
+                    for k in 0..n {
+                        let (s1, s2) = (sums.s1[k], sums.s2[k]);
+                        let g1 = (s1[0] + s1[1] + s1[2]) / 3.0;
+                        row.push([
+                            (s1[0] / m) as f32,
+                            (s1[1] / m) as f32,
+                            (s1[2] / m) as f32,
+                            var(s1[0], s2[0]),
+                            var(s1[1], s2[1]),
+                            var(s1[2], s2[2]),
+                            var(g1, sums.g2[k]),
+                        ]);
+                    }
+                }
+                row
+            })
+            .collect()
+    });
+    let mut mean = vec![Vec::with_capacity(w * h * 3); n];
+    let mut variance = vec![Vec::with_capacity(w * h * 3); n];
+    let mut grey = vec![Vec::with_capacity(w * h); n];
+    for row in rows {
+        for (j, v) in row.iter().enumerate() {
+            let k = j % n;
+            mean[k].extend_from_slice(&v[0..3]);
+            variance[k].extend_from_slice(&v[3..6]);
+            grey[k].push(v[6]);
+        }
+    }
+    Ok((mean, variance, grey))
+}
+
+/// One sample's radiance through the chosen integrator on `view`.
+fn radiance<V: View>(
+    view: &V,
+    integrator: &IntegratorKind,
+    ray: &crate::math::RayR<V::R>,
+    ctx: &SampleContext,
+) -> V3<V::R> {
+    let mut stats = NoStats;
+    match integrator {
+        IntegratorKind::Whitted => Whitted.radiance_of(view, ray, &mut stats),
+        IntegratorKind::Direct | IntegratorKind::Path(_) => {
+            let p = integrator
+                .path_tracer()
+                .expect("direct and path are path tracers");
+            p.trace(view, ray, ctx, &mut stats, None::<&NoEnd>)
+        }
+        IntegratorKind::FloodFill(_) => {
+            // Rejected by `check_supported`.
+            V3::splat(V::R::zero())
+        }
+    }
+}
