@@ -382,3 +382,97 @@ mod validate {
         }
     }
 }
+
+#[test]
+fn grad_writes_derivative_images_and_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "s.toml", GOOD);
+    let out = dir.path().join("g");
+    let o = raylab(&[
+        "grad",
+        scene.to_str().unwrap(),
+        "--param",
+        "materials.m.color",
+        "--param",
+        "light[0].intensity",
+        "--check",
+        "fd",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for want in [
+        "4 parameters",
+        "∂mean/∂p",
+        "light[0].intensity",
+        "central differences",
+    ] {
+        assert!(text.contains(want), "`{want}` missing from:\n{text}");
+    }
+    assert!(out.join("image.exr").is_file());
+    for p in [
+        "materials.m.color[0]",
+        "materials.m.color[2]",
+        "light[0].intensity",
+    ] {
+        for ext in ["exr", "png", "svg", "fd-diff.png"] {
+            assert!(out.join(format!("{p}.{ext}")).is_file(), "{p}.{ext}");
+        }
+    }
+    let exr = raylab::io::image::read_exr_channels(&out.join("light[0].intensity.exr")).unwrap();
+    for ch in [
+        "R",
+        "G",
+        "B",
+        "variance.R",
+        "variance.G",
+        "variance.B",
+        "count",
+    ] {
+        assert!(exr.get(ch).is_some(), "channel {ch}");
+    }
+}
+
+#[test]
+fn grad_errors_name_the_parameter_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "s.toml", GOOD);
+    let out = dir.path().join("g");
+    let run = |args: &[&str]| {
+        let mut all = vec!["grad", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        all.extend_from_slice(args);
+        raylab(&all)
+    };
+    for (args, wants) in [
+        (
+            &["--param", "sphere[3].radius"][..],
+            &["sphere[3].radius", "1 `[[sphere]]` entry"][..],
+        ),
+        (
+            &["--param", "materials.q.color"][..],
+            &["no material `q`", "`m`"][..],
+        ),
+        (&["--param", "image.width"][..], &["integers"][..]),
+        (
+            &["--param", "light[0].intensity", "--integrator", "floodfill"][..],
+            &["flood fill"][..],
+        ),
+        (
+            &["--param", "light[0].intensity", "--sampler", "adaptive"][..],
+            &["adaptive"][..],
+        ),
+    ] {
+        let o = run(args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        for w in wants {
+            assert!(err.contains(w), "{args:?}: `{err}` lacks `{w}`");
+        }
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(!out.exists(), "{args:?}: nothing may be written");
+    }
+    // Bad option values are usage errors (exit 2).
+    let o = run(&["--param", "light[0].intensity", "--check", "fd:-1"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}

@@ -350,11 +350,22 @@ pub fn resolve(path: &str, file: &SceneFile) -> Result<Vec<Param>, String> {
         .collect())
 }
 
-/// Resolve several names; a component named twice is an error.
+/// The most parameter components one gradient render takes (16 passes of
+/// 16): each costs about a render and 28 bytes per pixel of output.
+pub const MAX_PARAMS: usize = 256;
+
+/// Resolve several names; a component named twice is an error, and so are
+/// more than [`MAX_PARAMS`] components.
 pub fn resolve_all(paths: &[String], file: &SceneFile) -> Result<Vec<Param>, String> {
     let mut out: Vec<Param> = Vec::new();
     for p in paths {
         for param in resolve(p, file)? {
+            if out.len() == MAX_PARAMS {
+                return Err(format!(
+                    "more than {MAX_PARAMS} parameter components (the limit of one gradient \
+                     render); split them over several runs"
+                ));
+            }
             if out.iter().any(|q| q.name == param.name) {
                 return Err(format!("parameter `{}` is named twice", param.name));
             }

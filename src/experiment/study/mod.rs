@@ -22,6 +22,7 @@ pub mod accel_speed;
 pub mod embree_oracle;
 pub mod floodfill;
 pub mod gi_quality;
+pub mod gradient;
 pub mod registry;
 pub mod render_cost;
 pub mod timing;

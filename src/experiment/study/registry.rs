@@ -4,7 +4,9 @@
 //! parameters documented, its example manifests of its kind, the book's
 //! reference page describing it).
 
-use super::{aa_images, aa_patterns, accel_cost, accel_speed, floodfill, gi_quality, render_cost};
+use super::{
+    aa_images, aa_patterns, accel_cost, accel_speed, floodfill, gi_quality, gradient, render_cost,
+};
 use super::{DynStudy, ParamDoc};
 
 /// One study kind.
@@ -85,6 +87,14 @@ pub static KINDS: &[StudyKind] = &[
                   global-illumination integrator against a converged reference",
         examples: &["analysis/s4-cornell.toml"],
         study: &gi_quality::GiQuality,
+    },
+    StudyKind {
+        name: "gradient",
+        summary: "derivatives of images by forward-mode AD: the image mean's derivative and \
+                  its standard error, cost against the plain render for K parameters, and the \
+                  error against central finite differences",
+        examples: &["analysis/gradients.toml"],
+        study: &gradient::Gradient,
     },
     StudyKind {
         name: "floodfill",
