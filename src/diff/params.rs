@@ -32,7 +32,7 @@ pub enum Entity {
 pub enum Kind {
     Scalar,
     Vector,
-    /// Three points (a triangle's `vertices`), indexed [vertex][axis].
+    /// Three points (a triangle's `vertices`), indexed `[vertex][axis]`.
     Points,
 }
 

@@ -513,7 +513,7 @@ impl FloodFill {
     /// (facing the side the ray came from). `u` are three uniform numbers
     /// in [0, 1) (only [`Lookup::Hemisphere`] uses them): the result is a
     /// pure function of its arguments. When no empty voxel is found within
-    /// [`MAX_MARCH`] half-voxel steps along `n`, the nearest empty voxel in
+    /// `MAX_MARCH` half-voxel steps along `n`, the nearest empty voxel in
     /// front of `p` within two voxels answers; black when there is none.
     pub fn lookup(&self, p: Vec3, n: Vec3, mode: Lookup, u: [f32; 3]) -> Color {
         let h = self.voxel_size;

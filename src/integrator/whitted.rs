@@ -14,8 +14,8 @@
 //! wherever it is, so overlapping objects do not corrupt it.
 //!
 //! Self-intersection: secondary rays start at the hit point offset along
-//! the geometric normal ([`Hit::spawn_origin`], [`crate::shape::OFFSET_SCALE`]
-//! says why 1e-4); shadow rays are [`Hit::shadow_segment`]s. The local
+//! the geometric normal ([`crate::shape::Hit::spawn_origin`], [`crate::shape::OFFSET_SCALE`]
+//! says why 1e-4); shadow rays are [`crate::shape::Hit::shadow_segment`]s. The local
 //! terms are [`crate::shading`]'s kernels, and which lights are seen is
 //! [`crate::lighting`]'s rule ([`LightModel::Whitted`]: every point light).
 
