@@ -462,6 +462,10 @@ fn grad_errors_name_the_parameter_and_write_nothing() {
             &["--param", "light[0].intensity", "--sampler", "adaptive"][..],
             &["adaptive"][..],
         ),
+        (
+            &["--param", "materials.m.reflectivity", "--check", "fd"][..],
+            &["materials.m.reflectivity set to -0.00", "smaller step"][..],
+        ),
     ] {
         let o = run(args);
         let err = stderr(&o);

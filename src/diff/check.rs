@@ -124,6 +124,32 @@ pub struct Difference {
     pub scenes: [Scene; 2],
 }
 
+/// Check, without rendering, that the scene file still loads with `p` set
+/// to p ± h (a colour at 0 cannot go below it, a radius must stay
+/// positive…), so that a check fails before anything is written.
+pub fn check_step(
+    path: &Path,
+    text: &str,
+    file: &SceneFile,
+    overrides: &Overrides,
+    p: &Param,
+    h: f32,
+) -> Result<(), String> {
+    for v in [p.value - h, p.value + h] {
+        let t = scene_text_with(text, file, p, v)?;
+        parse_scene(&t, path, overrides).map_err(|e| {
+            format!(
+                "{}: {} set to {v} for the central difference: {} (the difference needs \
+                 p ± h in range: give a smaller step with `fd:H`)",
+                path.display(),
+                p.name,
+                e.message
+            )
+        })?;
+    }
+    Ok(())
+}
+
 /// Render the central difference of the image in `p` with step `h` (the
 /// scene at `path`, whose text is `text`, rendered with `overrides` and
 /// `integrator` on `threads` threads): renders at p ± h and p ± h/2, and
@@ -141,8 +167,15 @@ pub fn central_difference(
 ) -> Result<Difference, String> {
     let load = |v: f32| -> Result<(Scene, f32), String> {
         let t = scene_text_with(text, file, p, v)?;
-        let scene =
-            parse_scene(&t, path, overrides).map_err(|e| format!("{} set to {v}: {e}", p.name))?;
+        let scene = parse_scene(&t, path, overrides).map_err(|e| {
+            format!(
+                "{}: {} set to {v} for the central difference: {} (the difference needs \
+                 p ± h in range: give a smaller step with `fd:H`)",
+                path.display(),
+                p.name,
+                e.message
+            )
+        })?;
         Ok((scene, v))
     };
     let render = |s: &Scene| -> Result<LinearImage, String> {

@@ -38,7 +38,8 @@ pub mod render;
 pub mod view;
 
 pub use check::{
-    central_difference, check_param, compare, default_step, edge_mask, Comparison, Difference,
+    central_difference, check_param, check_step, compare, default_step, edge_mask, Comparison,
+    Difference,
 };
 pub use params::{resolve, resolve_all, Entity, Param};
 pub use render::{check_supported, render_gradients, Gradients};

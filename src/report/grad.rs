@@ -84,6 +84,13 @@ impl GradReport {
             diff::load(&opts.scene, &opts.overrides).map_err(|e| anyhow!("{e}"))?;
         let params = diff::resolve_all(&opts.params, &file).map_err(|e| anyhow!("{e}"))?;
         diff::check_supported(&scene, &opts.integrator).map_err(|e| anyhow!("{e}"))?;
+        let step = |p: &diff::Param, c: FdCheck| c.step.unwrap_or_else(|| diff::default_step(p));
+        if let Some(c) = opts.check {
+            for p in &params {
+                diff::check_step(&opts.scene, &text, &file, &opts.overrides, p, step(p, c))
+                    .map_err(|e| anyhow!("{e}"))?;
+            }
+        }
         std::fs::create_dir_all(&opts.out_dir)
             .with_context(|| format!("{}: cannot create folder", opts.out_dir.display()))?;
 
@@ -114,7 +121,7 @@ impl GradReport {
             let check = match opts.check {
                 None => None,
                 Some(c) => {
-                    let h = c.step.unwrap_or_else(|| diff::default_step(p));
+                    let h = step(p, c);
                     let cmp = diff::check_param(
                         &opts.scene,
                         &text,
