@@ -127,19 +127,11 @@ fn ad_vs_fd_with(
     let file: SceneFile = toml::from_str(text).unwrap();
     let p = params(&[name], &file);
     let g = diff::render_gradients(&scene, &file, path, &p, integrator, None).unwrap();
-    let fd = diff::central_difference(
-        path,
-        text,
-        &file,
-        overrides,
-        &p[0],
-        diff::default_step(&p[0]),
-        integrator,
-        None,
+    let h = diff::default_step(&p[0]);
+    diff::check_param(
+        path, text, &file, overrides, &scene, &g, 0, h, integrator, None,
     )
-    .unwrap();
-    let edges = diff::edge_mask(&[&scene, &fd.scenes[0], &fd.scenes[1]], &fd);
-    diff::compare(&g.grey(0), g.image_mean(0).0, &fd, &edges)
+    .unwrap()
 }
 
 /// Every kind of primitive, a mirror-like floor, a glass sphere, two point
