@@ -10,6 +10,8 @@
 //! truncation h²·|I‴|/6 of the same order: AD and FD agree to 1e-3
 //! relative on image means (the issue's target) where no boundary moves.
 
+mod common;
+
 use raylab::diff::{self, Gradients, Param};
 use raylab::integrator::path::LightStrategy;
 use raylab::integrator::{IntegratorKind, PathTracer};
@@ -359,26 +361,7 @@ fn path_tracer_derivatives_match_fd_at_equal_seed() {
 /// keep the derivative unbiased).
 #[test]
 fn furnace_derivatives_match_the_closed_form() {
-    let text = r#"
-[image]
-width = 16
-height = 16
-[camera]
-eye = [0.0, 0.0, 0.0]
-look_at = [0.0, 0.0, -1.0]
-fov = 90.0
-[render]
-sampler = "random:64"
-[materials.wall]
-color = [0.8, 0.8, 0.8]
-diffuse = 1.0
-ambient = 0.0
-emission = [0.2, 0.2, 0.2]
-[[sphere]]
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = "wall"
-"#;
+    let text = &common::furnace_scene(16);
     let path = PathTracer {
         max_bounces: 64,
         rr_start: Some(3),

@@ -10,6 +10,8 @@
 //! keeps a correct estimator's chance of failing a single comparison below
 //! 1e-4 when the seeds are changed.
 
+mod common;
+
 use raylab::film::Film;
 use raylab::integrator::path::LightStrategy;
 use raylab::integrator::{render, IntegratorKind, PathTracer, Whitted};
@@ -159,28 +161,7 @@ fn assert_blocks_agree(a: &Film, b: &Film, side: u32, k: f64, what: &str) {
 /// (error 0.2), a biased roulette shifts the mean by ≥ 1e-2.
 #[test]
 fn white_furnace_converges_to_le_over_one_minus_albedo() {
-    let s = scene(
-        r#"
-[image]
-width = 24
-height = 24
-[camera]
-eye = [0.0, 0.0, 0.0]
-look_at = [0.0, 0.0, -1.0]
-fov = 90.0
-[render]
-sampler = "random:64"
-[materials.wall]
-color = [0.8, 0.8, 0.8]
-diffuse = 1.0
-ambient = 0.0
-emission = [0.2, 0.2, 0.2]
-[[sphere]]
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = "wall"
-"#,
-    );
+    let s = scene(&common::furnace_scene(24));
     for strategy in [
         LightStrategy::Mis,
         LightStrategy::BsdfOnly,

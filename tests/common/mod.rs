@@ -15,3 +15,31 @@ pub fn external(relative: &str) -> std::path::PathBuf {
     );
     root.join(relative)
 }
+
+/// The white furnace: a closed sphere of albedo a = 0.8 and emission
+/// L_e = 0.2 seen from its centre, `size`² pixels at 64 random samples per
+/// pixel. Every pixel's radiance is L_e/(1 − a) = 1.
+pub fn furnace_scene(size: u32) -> String {
+    format!(
+        r#"
+[image]
+width = {size}
+height = {size}
+[camera]
+eye = [0.0, 0.0, 0.0]
+look_at = [0.0, 0.0, -1.0]
+fov = 90.0
+[render]
+sampler = "random:64"
+[materials.wall]
+color = [0.8, 0.8, 0.8]
+diffuse = 1.0
+ambient = 0.0
+emission = [0.2, 0.2, 0.2]
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "wall"
+"#
+    )
+}
