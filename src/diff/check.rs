@@ -124,6 +124,28 @@ pub struct Difference {
     pub scenes: [Scene; 2],
 }
 
+/// The scene at `path` (text `text`) with `p` set to `v`, loaded with
+/// `overrides`; an error says which value failed and why.
+fn load_with(
+    path: &Path,
+    text: &str,
+    file: &SceneFile,
+    overrides: &Overrides,
+    p: &Param,
+    v: f32,
+) -> Result<Scene, String> {
+    let t = scene_text_with(text, file, p, v)?;
+    parse_scene(&t, path, overrides).map_err(|e| {
+        format!(
+            "{}: {} set to {v} for the central difference: {} (the difference needs \
+             p ± h in range: give a smaller step with `fd:H`)",
+            path.display(),
+            p.name,
+            e.message
+        )
+    })
+}
+
 /// Check, without rendering, that the scene file still loads with `p` set
 /// to p ± h (a colour at 0 cannot go below it, a radius must stay
 /// positive…), so that a check fails before anything is written.
@@ -136,16 +158,7 @@ pub fn check_step(
     h: f32,
 ) -> Result<(), String> {
     for v in [p.value - h, p.value + h] {
-        let t = scene_text_with(text, file, p, v)?;
-        parse_scene(&t, path, overrides).map_err(|e| {
-            format!(
-                "{}: {} set to {v} for the central difference: {} (the difference needs \
-                 p ± h in range: give a smaller step with `fd:H`)",
-                path.display(),
-                p.name,
-                e.message
-            )
-        })?;
+        load_with(path, text, file, overrides, p, v)?;
     }
     Ok(())
 }
@@ -166,17 +179,7 @@ pub fn central_difference(
     threads: Option<usize>,
 ) -> Result<Difference, String> {
     let load = |v: f32| -> Result<(Scene, f32), String> {
-        let t = scene_text_with(text, file, p, v)?;
-        let scene = parse_scene(&t, path, overrides).map_err(|e| {
-            format!(
-                "{}: {} set to {v} for the central difference: {} (the difference needs \
-                 p ± h in range: give a smaller step with `fd:H`)",
-                path.display(),
-                p.name,
-                e.message
-            )
-        })?;
-        Ok((scene, v))
+        Ok((load_with(path, text, file, overrides, p, v)?, v))
     };
     let render = |s: &Scene| -> Result<LinearImage, String> {
         let (film, _) = integrator.render::<NoStats>(s, threads)?;
