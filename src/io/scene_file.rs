@@ -235,8 +235,8 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
         InputError::new(path, Place::LineCol(l, c), msg)
     };
     let file: SceneFile = toml::from_str(text).map_err(|e| match e.span() {
-        Some(span) => at(span, e.message().to_string()),
-        None => InputError::file(path, e.message().to_string()),
+        Some(span) => at(span, super::toml_message(text, &e)),
+        None => InputError::file(path, super::toml_message(text, &e)),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
 

@@ -221,10 +221,8 @@ pub fn parse_manifest(text: &str, path: &Path) -> Result<Manifest, InputError> {
 /// point at the value; the message then gets the key written before it on
 /// that line ("`repeats`: invalid type: string \"3\", expected …").
 fn toml_error(text: &str, path: &Path, e: &toml::de::Error) -> InputError {
-    let msg = e
-        .message()
-        .trim()
-        .replace("expected u32", "expected a non-negative integer");
+    let msg =
+        crate::io::toml_message(text, e).replace("expected u32", "expected a non-negative integer");
     match e.span() {
         Some(span) => {
             let msg = match key_before(text, span.start) {
