@@ -4,9 +4,7 @@
 use super::alloc;
 use super::mutate::mutate;
 use super::seeds::{seeds, Seed};
-use super::targets::{
-    allowance, bound, targets, Ctx, Target, Verdict, CAMPAIGN_TRIANGLES, DEFAULT_TRIANGLES,
-};
+use super::targets::{allowance, bound, targets, triangles, Ctx, Target, Verdict, SCENE_TRIANGLES};
 use raylab::math::SplitMix64;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
@@ -39,9 +37,6 @@ pub struct Config {
     pub only: Option<Vec<String>>,
     /// Where failing inputs are saved.
     pub crash_dir: PathBuf,
-    /// Scenes asking for more procedural triangles are skipped (see
-    /// [`super::targets::CAMPAIGN_TRIANGLES`]).
-    pub max_triangles: u64,
 }
 
 impl Config {
@@ -68,11 +63,6 @@ impl Config {
                 || PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fuzz-crashes"),
                 PathBuf::from,
             ),
-            max_triangles: if campaign {
-                CAMPAIGN_TRIANGLES
-            } else {
-                DEFAULT_TRIANGLES
-            },
         }
     }
 }
@@ -178,7 +168,7 @@ pub fn run(config: &Config) -> Vec<Summary> {
         .num_threads(1)
         .build_global();
     let scratch = tempfile::tempdir().expect("scratch folder");
-    let ctx = context(scratch.path(), config.max_triangles);
+    let ctx = context(scratch.path());
     let stop = std::sync::Arc::new(AtomicBool::new(false));
     let watchdog = {
         let stop = stop.clone();
@@ -229,7 +219,7 @@ fn set_cap_from_env() {
 
 /// The scratch tree: `meshes/cube.obj` beside `scenes/`, for the scenes'
 /// `../meshes/cube.obj`.
-fn context(dir: &Path, max_triangles: u64) -> Ctx {
+fn context(dir: &Path) -> Ctx {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     for sub in ["scenes", "meshes", "analysis"] {
         std::fs::create_dir_all(dir.join(sub)).expect("scratch folder");
@@ -243,7 +233,6 @@ fn context(dir: &Path, max_triangles: u64) -> Ctx {
         dir: dir.to_path_buf(),
         scene_path: dir.join("scenes/fuzz.toml"),
         manifest_path: dir.join("analysis/fuzz.toml"),
-        max_triangles,
     }
 }
 
@@ -306,7 +295,8 @@ fn run_target(t: &Target, config: &Config, ctx: &Ctx) -> Summary {
         }
         let mut rng = SplitMix64(SplitMix64::mix(config.seed ^ target_key) ^ i);
         // First every seed as it is, then mutants.
-        let (bytes, desc) = if (i as usize) < seeds.len() {
+        let unmodified = (i as usize) < seeds.len();
+        let (bytes, desc) = if unmodified {
             let seed = &seeds[i as usize];
             (seed.bytes.clone(), format!("{} (unmodified)", seed.name))
         } else {
@@ -328,10 +318,16 @@ fn run_target(t: &Target, config: &Config, ctx: &Ctx) -> Summary {
             (m.bytes, desc)
         };
         s.inputs += 1;
-        let Some(extra) = allowance(t, &bytes, ctx) else {
+        // A scene that asks for many procedural triangles is a request for
+        // work: its mutants are skipped; the seed itself runs in the
+        // campaign, without the time limit (see SCENE_TRIANGLES).
+        let triangles = triangles(t, &bytes);
+        let heavy = triangles > SCENE_TRIANGLES;
+        if heavy && !(unmodified && config.whole_seeds) {
             s.skipped += 1;
             continue;
-        };
+        }
+        let extra = allowance(triangles);
         let (verdict, elapsed, used) = run_one(t, ctx, &bytes, &desc);
         let mut failed: Vec<(&'static str, String)> = Vec::new();
         let mut fail = |kind: &'static str, what: String| failed.push((kind, what));
@@ -341,7 +337,7 @@ fn run_target(t: &Target, config: &Config, ctx: &Ctx) -> Summary {
             Ok(Verdict::Rejected) => s.rejected += 1,
             Ok(Verdict::Broken(why)) => fail("broken", why),
         }
-        if elapsed > SLOW {
+        if elapsed > SLOW && !heavy {
             // Once more, in case the machine was busy: the faster run counts.
             let (_, again, _) = run_one(t, ctx, &bytes, &desc);
             if again > SLOW {
@@ -367,7 +363,7 @@ fn run_target(t: &Target, config: &Config, ctx: &Ctx) -> Summary {
         for (kind, what) in failed {
             record(t, config, &mut s, kind, &bytes, &desc, what);
         }
-        if elapsed > s.slowest.0 {
+        if elapsed > s.slowest.0 && !heavy {
             s.slowest = (elapsed, desc.clone());
         }
         let fraction = used as f64 / limit as f64;
@@ -460,17 +456,17 @@ pub fn replay(name: &str, bytes: &[u8], dir: &Path) -> (bool, String) {
         .iter()
         .find(|t| t.name == name)
         .unwrap_or_else(|| panic!("no target `{name}`"));
-    let ctx = context(dir, CAMPAIGN_TRIANGLES);
-    let extra = allowance(t, bytes, &ctx);
+    let ctx = context(dir);
+    let triangles = triangles(t, bytes);
     let (verdict, elapsed, used) = run_one(t, &ctx, bytes, "replayed input");
-    let limit = bound(t, bytes.len(), extra.unwrap_or(0));
+    let limit = bound(t, bytes.len(), allowance(triangles));
     let (clean, verdict) = match verdict {
         Err(panic) => (false, format!("panicked: {panic}")),
         Ok(Verdict::Accepted) => (true, "accepted".into()),
         Ok(Verdict::Rejected) => (true, "rejected with an error naming the file".into()),
         Ok(Verdict::Broken(why)) => (false, format!("broke a rule: {why}")),
     };
-    let ok = clean && elapsed <= SLOW && used as u64 <= limit;
+    let ok = clean && (elapsed <= SLOW || triangles > SCENE_TRIANGLES) && used as u64 <= limit;
     let text = format!(
         "{name}: {verdict}; {:.1} ms; allocated up to {used} bytes (bound {limit})",
         elapsed.as_secs_f64() * 1e3,
