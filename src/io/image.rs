@@ -236,14 +236,19 @@ const DEFLATE_MAX_RATIO: u64 = 1032;
 
 /// The most pixel bytes an EXR file may declare per byte of file: above
 /// deflate's 1032:1 (and PXR24's 4/3 of it for f32) and PIZ's Huffman
-/// coding with run lengths (~410:1). Only a lossy DWAA/DWAB file of flat
-/// colour compresses further; raylab never writes those.
+/// coding with run lengths (~410:1). (Lossy DWAA/DWAB, which can compress
+/// further, is refused anyway: see [`check_declared_size`].)
 const EXR_MAX_RATIO: u64 = 2048;
 
 /// Refuse an image whose header declares more pixel data than its file
 /// can hold compressed, before a decoder allocates room for it: a
 /// 100-byte file that claims 60000×60000 pixels would otherwise cost
 /// gigabytes. Files the decoder cannot read pass, for it to report.
+///
+/// EXR files in the lossy DWAA/DWAB compressions are refused: exr's DWA
+/// decoder allocates the size a block states for its deflated part without
+/// bounding it, so three flipped bits made it ask for 72 PB and abort the
+/// process (found by tests/fuzz.rs). raylab writes ZIP.
 fn check_declared_size(path: &Path, format: ImageFormat) -> Result<(), InputError> {
     let file_len = std::fs::metadata(path)
         .map_err(|e| InputError::file(path, format!("cannot read: {e}")))?
@@ -260,7 +265,24 @@ fn check_declared_size(path: &Path, format: ImageFormat) -> Result<(), InputErro
             }
         }
         ImageFormat::Exr => match exr::meta::MetaData::read_from_file(path, false) {
-            Ok(meta) => exr_data_bytes(&meta),
+            Ok(meta) => {
+                use exr::compression::Compression;
+                let dwa = meta.headers.iter().find_map(|h| match h.compression {
+                    Compression::DWAA(_) => Some("DWAA"),
+                    Compression::DWAB(_) => Some("DWAB"),
+                    _ => None,
+                });
+                if let Some(name) = dwa {
+                    return Err(InputError::file(
+                        path,
+                        format!(
+                            "{name} compression is not supported (its decoder trusts sizes \
+                             stored in the file); convert the image to ZIP, PIZ or no compression"
+                        ),
+                    ));
+                }
+                exr_data_bytes(&meta)
+            }
             Err(_) => return Ok(()),
         },
     };
@@ -407,6 +429,40 @@ mod tests {
             ] {
                 assert_eq!(e.path, exr);
                 assert!(e.message.contains("60000×60000 pixels"), "{window}: {e}");
+            }
+        }
+    }
+
+    /// DWAA and DWAB are refused before the decoder runs: exr's DWA
+    /// decoder allocated the size a block states, 72 PB for a mutated file
+    /// (found by tests/fuzz.rs; tests/data/fuzz/exr-dwaa-inflated-size.exr).
+    #[test]
+    fn dwa_compressed_exr_is_refused() {
+        use exr::prelude::*;
+        let dir = tempfile::tempdir().unwrap();
+        for (name, compression) in [
+            ("DWAA", Compression::DWAA(None)),
+            ("DWAB", Compression::DWAB(None)),
+        ] {
+            let path = dir.path().join(format!("{name}.exr"));
+            let samples = FlatSamples::F32((0..64).map(|i| i as f32 / 64.0).collect());
+            let layer = Layer::new(
+                (8, 8),
+                LayerAttributes::default(),
+                Encoding {
+                    compression,
+                    blocks: Blocks::ScanLines,
+                    line_order: LineOrder::Increasing,
+                },
+                AnyChannels::sort(vec![AnyChannel::new("R", samples)].into()),
+            );
+            Image::from_layer(layer).write().to_file(&path).unwrap();
+            for e in [
+                read_image(&path).unwrap_err(),
+                read_exr_channels(&path).unwrap_err(),
+            ] {
+                assert_eq!(e.path, path);
+                assert!(e.message.contains("not supported"), "{name}: {e}");
             }
         }
     }
