@@ -201,7 +201,13 @@ pub fn run(config: &Config) -> Vec<Summary> {
                 .as_ref()
                 .map_or(true, |only| only.iter().any(|o| o == t.name))
         })
-        .map(|t| run_target(t, config, &ctx))
+        .map(|t| {
+            // Print as each reader finishes, so that a campaign cut short
+            // still reports the readers it completed.
+            let s = run_target(t, config, &ctx);
+            println!("{s}");
+            s
+        })
         .collect();
     std::panic::set_hook(previous_hook);
     stop.store(true, SeqCst);
