@@ -27,7 +27,8 @@
 //! stays a few MiB; 16 MiB is several times that, and a leak of one
 //! scene's working set per scene (150 × ≥ 100 KiB) would still exceed it.
 //!
-//! `cargo test --test soak -- --nocapture` prints the curve (scene, RSS).
+//! `cargo test --test soak -- --nocapture` prints the curve (scene, RSS);
+//! `RAYLAB_SOAK_SCENES=3000` runs longer.
 
 use raylab::integrator::IntegratorKind;
 use raylab::io::scene_file::{parse_scene, Overrides};
@@ -37,6 +38,14 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 const SCENES: usize = 300;
+
+/// `RAYLAB_SOAK_SCENES=N` renders N scenes instead (at least 2·BASELINE).
+fn scenes() -> usize {
+    std::env::var("RAYLAB_SOAK_SCENES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .map_or(SCENES, |n: usize| n.max(2 * BASELINE))
+}
 /// The scene whose RSS is the baseline.
 const BASELINE: usize = 20;
 /// How far above the baseline the second half may go.
@@ -244,8 +253,10 @@ fn scene_text(index: usize) -> Generated {
     for _ in 0..g.n(1, 3) {
         let _ = write!(
             t,
-            "[[light]]\nposition = {}\ncolor = {}\nintensity = {}\nfalloff = \"{}\"\nwhitted_only = {}\n",
-            format!("[{}, {}, {}]", g.f(-4.0, 4.0), g.f(1.0, 5.0), g.f(-2.0, 6.0)),
+            "[[light]]\nposition = [{}, {}, {}]\ncolor = {}\nintensity = {}\nfalloff = \"{}\"\nwhitted_only = {}\n",
+            g.f(-4.0, 4.0),
+            g.f(1.0, 5.0),
+            g.f(-2.0, 6.0),
             g.v(0.5, 1.0),
             g.f(0.2, 1.5),
             g.pick(&["none", "inverse_square"]),
@@ -263,10 +274,11 @@ fn hundreds_of_scenes_in_one_process_keep_memory_flat() {
     // `../meshes/cube.obj` resolves from here; the file itself is not read.
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/soak.toml");
     let start = std::time::Instant::now();
-    let mut curve: Vec<(usize, u64)> = Vec::with_capacity(SCENES);
+    let count = scenes();
+    let mut curve: Vec<(usize, u64)> = Vec::with_capacity(count);
     let mut floodfill = (0, 0);
     let mut seen: std::collections::BTreeMap<String, usize> = Default::default();
-    for i in 0..SCENES {
+    for i in 0..count {
         let g = scene_text(i);
         {
             let scene = parse_scene(&g.text, &path, &Overrides::default())
@@ -319,7 +331,7 @@ fn hundreds_of_scenes_in_one_process_keep_memory_flat() {
         curve.push((i, rss_kb()));
     }
     let seconds = start.elapsed().as_secs_f64();
-    println!("soak: {SCENES} scenes in {seconds:.1} s; RSS after each scene (KiB):");
+    println!("soak: {count} scenes in {seconds:.1} s; RSS after each scene (KiB):");
     for chunk in curve.chunks(10) {
         let row: Vec<String> = chunk.iter().map(|(i, kb)| format!("{i:>3}:{kb}")).collect();
         println!("  {}", row.join(" "));
@@ -336,7 +348,7 @@ fn hundreds_of_scenes_in_one_process_keep_memory_flat() {
         floodfill.0
     );
     let baseline = curve[BASELINE].1;
-    let (worst_at, worst) = curve[SCENES / 2..]
+    let (worst_at, worst) = curve[count / 2..]
         .iter()
         .copied()
         .max_by_key(|&(_, kb)| kb)
