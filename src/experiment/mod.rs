@@ -12,7 +12,7 @@
 //! name = "s1-ogss-cost"       # required: names the output folder
 //! kind = "render_cost"        # required: the study kind (see below)
 //! description = "What it asks."
-//! repeats = 5                 # timed repeats per run (default 5, at least 1)
+//! repeats = 5                 # timed repeats per run (default 5, 1 to 1000)
 //! warmup = 1                  # untimed runs before them (default 1)
 //! threads = 2                 # worker threads (default: all cores; --threads wins)
 //!

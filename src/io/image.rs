@@ -180,6 +180,7 @@ impl ExrChannels {
 /// (unsigned-integer channels are converted exactly up to 2²⁴).
 pub fn read_exr_channels(path: &Path) -> Result<ExrChannels, InputError> {
     use exr::prelude::*;
+    check_declared_size(path, ImageFormat::Exr)?;
     let img = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -214,6 +215,7 @@ pub fn read_image(path: &Path) -> Result<LinearImage, InputError> {
     let format = ImageFormat::from_path(path).ok_or_else(|| {
         InputError::file(path, "unsupported image extension (expected .png or .exr)")
     })?;
+    check_declared_size(path, format)?;
     let dynimg = image::open(path).map_err(|e| InputError::file(path, e.to_string()))?;
     let (w, h) = (dynimg.width() as usize, dynimg.height() as usize);
     let data: Vec<f32> = match format {
@@ -226,6 +228,121 @@ pub fn read_image(path: &Path) -> Result<LinearImage, InputError> {
         ImageFormat::Exr => dynimg.to_rgb32f().into_raw(),
     };
     Array3::from_shape_vec((h, w, 3), data).map_err(|e| InputError::file(path, e.to_string()))
+}
+
+/// Deflate (PNG's image data; EXR's ZIP and PXR24) expands at most 1032:1:
+/// a file of n bytes cannot hold more than 1032·n bytes of pixels.
+const DEFLATE_MAX_RATIO: u64 = 1032;
+
+/// The most pixel bytes an EXR file may declare per byte of file: above
+/// deflate's 1032:1 (and PXR24's 4/3 of it for f32) and PIZ's Huffman
+/// coding with run lengths (~410:1). Only a lossy DWAA/DWAB file of flat
+/// colour compresses further; raylab never writes those.
+const EXR_MAX_RATIO: u64 = 2048;
+
+/// Refuse an image whose header declares more pixel data than its file
+/// can hold compressed, before a decoder allocates room for it: a
+/// 100-byte file that claims 60000×60000 pixels would otherwise cost
+/// gigabytes. Files the decoder cannot read pass, for it to report.
+fn check_declared_size(path: &Path, format: ImageFormat) -> Result<(), InputError> {
+    let file_len = std::fs::metadata(path)
+        .map_err(|e| InputError::file(path, format!("cannot read: {e}")))?
+        .len();
+    let (declared, ratio, what) = match format {
+        ImageFormat::Png => {
+            let mut header = [0u8; 29];
+            let n = std::fs::File::open(path)
+                .and_then(|mut f| std::io::Read::read(&mut f, &mut header))
+                .map_err(|e| InputError::file(path, format!("cannot read: {e}")))?;
+            match png_data_bytes(&header[..n]) {
+                Some(d) => d,
+                None => return Ok(()),
+            }
+        }
+        ImageFormat::Exr => match exr::meta::MetaData::read_from_file(path, false) {
+            Ok(meta) => exr_data_bytes(&meta),
+            Err(_) => return Ok(()),
+        },
+    };
+    if declared > ratio.saturating_mul(file_len) {
+        return Err(InputError::file(
+            path,
+            format!(
+                "the header declares {what} ({declared} bytes of pixel data), more than a \
+                 file of {file_len} bytes can hold (its compression expands at most {ratio}:1)"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// From the start of a PNG file (signature and IHDR chunk), the bytes of
+/// its filtered scan lines (what deflate must produce), the most they can
+/// expand, and the size in words; `None` if this is no PNG header.
+fn png_data_bytes(header: &[u8]) -> Option<(u64, u64, String)> {
+    const SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
+    if header.len() < 29 || !header.starts_with(SIGNATURE) || header[12..16] != *b"IHDR" {
+        return None;
+    }
+    let be = |at: usize| {
+        u64::from(u32::from_be_bytes([
+            header[at],
+            header[at + 1],
+            header[at + 2],
+            header[at + 3],
+        ]))
+    };
+    let (width, height) = (be(16), be(20));
+    let samples = match header[25] {
+        0 | 3 => 1, // grey, palette index
+        4 => 2,     // grey and alpha
+        2 => 3,     // RGB
+        6 => 4,     // RGBA
+        _ => return None,
+    };
+    let bits = width.saturating_mul(samples * u64::from(header[24]));
+    // Each row: a filter byte and its samples, packed to whole bytes.
+    let row = 1 + bits.div_ceil(8);
+    Some((
+        height.saturating_mul(row),
+        DEFLATE_MAX_RATIO,
+        format!("{width}×{height} pixels"),
+    ))
+}
+
+/// The pixel bytes of an EXR file's flat layers at full resolution, the
+/// most they can expand, and the size in words. A layer counts with its
+/// data window or its display window, whichever is larger: the decoder
+/// behind [`read_image`] returns the display window, filling what lies
+/// outside the data window with zeros.
+fn exr_data_bytes(meta: &exr::meta::MetaData) -> (u64, u64, String) {
+    let mut total = 0u64;
+    let mut sizes = Vec::new();
+    for h in meta.headers.iter().filter(|h| !h.deep) {
+        let area = |size: exr::math::Vec2<usize>| {
+            (size.width() as u64).saturating_mul(size.height() as u64)
+        };
+        let display = h.shared_attributes.display_window.size;
+        let size = if area(display) > area(h.layer_size) {
+            display
+        } else {
+            h.layer_size
+        };
+        let (w, ht) = (size.width() as u64, size.height() as u64);
+        let per_pixel: u64 = h
+            .channels
+            .list
+            .iter()
+            .map(|c| c.sample_type.bytes_per_sample() as u64)
+            .sum();
+        total = total.saturating_add(w.saturating_mul(ht).saturating_mul(per_pixel));
+        sizes.push(format!("{w}×{ht}"));
+    }
+    let what = match sizes.len() {
+        1 => format!("{} pixels", sizes[0]),
+        _ => format!("layers of {} pixels", sizes.join(", ")),
+    };
+    (total, EXR_MAX_RATIO, what)
 }
 
 #[cfg(test)]
@@ -247,6 +364,103 @@ mod tests {
         for (a, b) in back.iter().zip(img.iter()) {
             assert!((a - b).abs() < 0.01, "{a} vs {b}");
         }
+    }
+
+    /// A header that declares more pixels than its file can hold is refused
+    /// before anything is allocated for them (found by tests/fuzz.rs: an
+    /// EXR of 2796 bytes made its decoder allocate 578 MB).
+    #[test]
+    fn declared_size_beyond_the_file_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let img = Array3::from_elem((3, 4, 3), 0.5f32);
+        // PNG: width and height in the IHDR chunk (the CRC goes stale,
+        // but the size check comes first).
+        let png = dir.path().join("big.png");
+        write_image(&png, &img).unwrap();
+        let mut bytes = std::fs::read(&png).unwrap();
+        bytes[16..20].copy_from_slice(&60000u32.to_be_bytes());
+        bytes[20..24].copy_from_slice(&60000u32.to_be_bytes());
+        std::fs::write(&png, &bytes).unwrap();
+        let e = read_image(&png).unwrap_err();
+        assert_eq!(e.path, png);
+        assert!(e.message.contains("60000×60000 pixels"), "{e}");
+        // EXR: xMax and yMax of the data window, then of the display
+        // window alone (the decoder behind read_image returns the display
+        // window: a 2.8 KB file made it allocate 289 MB).
+        for window in ["dataWindow", "displayWindow"] {
+            let exr = dir.path().join(format!("{window}.exr"));
+            write_image(&exr, &img).unwrap();
+            let mut bytes = std::fs::read(&exr).unwrap();
+            let key = format!("{window}\0box2i\0");
+            let at = bytes
+                .windows(key.len())
+                .position(|w| w == key.as_bytes())
+                .unwrap()
+                + key.len()
+                + 4;
+            bytes[at + 8..at + 12].copy_from_slice(&59999i32.to_le_bytes());
+            bytes[at + 12..at + 16].copy_from_slice(&59999i32.to_le_bytes());
+            std::fs::write(&exr, &bytes).unwrap();
+            for e in [
+                read_image(&exr).unwrap_err(),
+                read_exr_channels(&exr).unwrap_err(),
+            ] {
+                assert_eq!(e.path, exr);
+                assert!(e.message.contains("60000×60000 pixels"), "{window}: {e}");
+            }
+        }
+    }
+
+    /// A B44 block whose deltas run below zero: OpenEXR's decoder relies
+    /// on unsigned wrap-around there, and exr's port panicked in builds
+    /// with overflow checks (found by tests/fuzz.rs; Cargo.toml turns the
+    /// checks off for exr). The file must read, not panic.
+    #[test]
+    fn b44_block_that_wraps_round_reads() {
+        use exr::prelude::*;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("b44.exr");
+        let (w, h) = (8usize, 4usize);
+        let channel = |name: &str| {
+            AnyChannel::new(
+                name,
+                FlatSamples::F16((0..w * h).map(|i| f16::from_f32(i as f32 / 7.0)).collect()),
+            )
+        };
+        let layer = Layer::new(
+            (w, h),
+            LayerAttributes::default(),
+            Encoding {
+                compression: Compression::B44,
+                blocks: Blocks::ScanLines,
+                line_order: LineOrder::Increasing,
+            },
+            AnyChannels::sort(vec![channel("R"), channel("G"), channel("B")].into()),
+        );
+        Image::from_layer(layer).write().to_file(&path).unwrap();
+        let mut bytes = std::fs::read(&path).unwrap();
+        // The one chunk: after the header's final NUL comes the offset table
+        // (one u64), then the chunk's y (i32), size (i32) and data. Every
+        // 14-byte block becomes s0 = 0 with shift 12: s4 = s0 + 0 − bias.
+        let nul = |from: usize| from + bytes[from..].iter().position(|&b| b == 0).unwrap();
+        let mut at = 8; // magic number and version
+        while bytes[at] != 0 {
+            let type_end = nul(nul(at) + 1);
+            let size = i32::from_le_bytes(bytes[type_end + 1..type_end + 5].try_into().unwrap());
+            at = type_end + 5 + size as usize;
+        }
+        let header_end = at;
+        let chunk = u64::from_le_bytes(bytes[header_end + 1..header_end + 9].try_into().unwrap());
+        let data = chunk as usize + 8;
+        let size = i32::from_le_bytes(bytes[data - 4..data].try_into().unwrap()) as usize;
+        assert!(size < w * h * 6, "the chunk must be B44-compressed");
+        for (i, b) in bytes[data..data + size].iter_mut().enumerate() {
+            *b = if i % 14 == 2 { 0x30 } else { 0 };
+        }
+        std::fs::write(&path, &bytes).unwrap();
+        // It decodes (to what the wrapped deltas give).
+        assert_eq!(read_image(&path).unwrap().dim(), (h, w, 3));
+        assert_eq!(read_exr_channels(&path).unwrap().channels.len(), 3);
     }
 
     /// Every channel comes back as written: f32 and u32 samples are stored

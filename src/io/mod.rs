@@ -81,6 +81,24 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
     (line, col)
 }
 
+/// The message of a TOML error in `text`. The parser leaves it empty for
+/// some syntax errors (a control character in a comment, a value cut off
+/// by the end of the file); then it says what is at the error's place.
+pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim();
+    if !message.is_empty() {
+        return message.to_string();
+    }
+    let found = e
+        .span()
+        .and_then(|span| text.get(span.start..))
+        .and_then(|rest| rest.chars().next());
+    match found {
+        Some(c) => format!("TOML syntax error: unexpected {c:?}"),
+        None => "TOML syntax error: the file ends in the middle of a statement".into(),
+    }
+}
+
 /// Write a file atomically: the bytes go to a temporary name beside the
 /// target, which is renamed into place only when complete, so a failed or
 /// interrupted write never leaves a half-written output.
@@ -103,4 +121,29 @@ pub fn write_atomically(
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::scene_file::{parse_scene, Overrides};
+    use super::*;
+
+    /// Syntax errors for which the TOML parser gives no message still get
+    /// one (found by tests/fuzz.rs: a NUL byte in a comment, a scene cut
+    /// off before a value).
+    #[test]
+    fn toml_errors_without_a_message_get_one() {
+        let path = Path::new("s.toml");
+        for (text, needle) in [
+            ("# a comment\0\n[image]\n", "unexpected '\\0'"),
+            ("[camera]\neye = ", "ends in the middle"),
+        ] {
+            let e = match parse_scene(text, path, &Overrides::default()) {
+                Err(e) => e,
+                Ok(_) => panic!("{text:?} parsed"),
+            };
+            assert_eq!(e.path, path);
+            assert!(e.message.contains(needle), "{text:?}: {e}");
+        }
+    }
 }

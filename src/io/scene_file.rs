@@ -236,8 +236,8 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
     };
     super::toml_numbers::check_floats(text, path)?;
     let file: SceneFile = toml::from_str(text).map_err(|e| match e.span() {
-        Some(span) => at(span, e.message().to_string()),
-        None => InputError::file(path, e.message().to_string()),
+        Some(span) => at(span, super::toml_message(text, &e)),
+        None => InputError::file(path, super::toml_message(text, &e)),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
 

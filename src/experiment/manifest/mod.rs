@@ -26,6 +26,10 @@ use std::path::{Path, PathBuf};
 
 /// Repeats of each timed measurement when the manifest does not say.
 pub const DEFAULT_REPEATS: u32 = 5;
+/// The most repeats a manifest may ask for: each is a column of data.csv
+/// (`render_s_1` …), made before anything runs, so a typo such as
+/// `repeats = 2147483647` must not get that far.
+pub const MAX_REPEATS: u32 = 1000;
 /// Untimed warm-up runs before the repeats when the manifest does not say.
 pub const DEFAULT_WARMUP: u32 = 1;
 

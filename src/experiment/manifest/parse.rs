@@ -8,7 +8,7 @@
 use super::validate::check_names;
 use super::{
     FigureKind, FigureSpans, FigureSpec, Manifest, Quick, Reference, ReferenceStyle,
-    DEFAULT_REPEATS, DEFAULT_WARMUP,
+    DEFAULT_REPEATS, DEFAULT_WARMUP, MAX_REPEATS,
 };
 use crate::analysis::plot::LegendPosition;
 use crate::experiment::params::quoted;
@@ -138,6 +138,15 @@ pub fn parse_manifest(text: &str, path: &Path) -> Result<Manifest, InputError> {
         Some(r) if *r.get_ref() == 0 => {
             return Err(at(r.span(), "`repeats` must be at least 1".into()))
         }
+        Some(r) if *r.get_ref() > MAX_REPEATS => {
+            return Err(at(
+                r.span(),
+                format!(
+                    "`repeats` must be at most {MAX_REPEATS}, got {}",
+                    r.get_ref()
+                ),
+            ))
+        }
         Some(r) => *r.get_ref(),
         None => DEFAULT_REPEATS,
     };
@@ -221,10 +230,8 @@ pub fn parse_manifest(text: &str, path: &Path) -> Result<Manifest, InputError> {
 /// point at the value; the message then gets the key written before it on
 /// that line ("`repeats`: invalid type: string \"3\", expected …").
 fn toml_error(text: &str, path: &Path, e: &toml::de::Error) -> InputError {
-    let msg = e
-        .message()
-        .trim()
-        .replace("expected u32", "expected a non-negative integer");
+    let msg =
+        crate::io::toml_message(text, e).replace("expected u32", "expected a non-negative integer");
     match e.span() {
         Some(span) => {
             let msg = match key_before(text, span.start) {
@@ -334,6 +341,15 @@ fn quick_block(
     let repeats = match &qf.repeats {
         Some(r) if *r.get_ref() == 0 => {
             return Err(at(r.span(), "[quick] `repeats` must be at least 1".into()))
+        }
+        Some(r) if *r.get_ref() > MAX_REPEATS => {
+            return Err(at(
+                r.span(),
+                format!(
+                    "[quick] `repeats` must be at most {MAX_REPEATS}, got {}",
+                    r.get_ref()
+                ),
+            ))
         }
         r => r.as_ref().map(|r| *r.get_ref()),
     };
@@ -650,6 +666,13 @@ mod tests {
             "repeats = 2",
             "repeats = 0",
             &["`repeats` must be at least 1"],
+        );
+        // Found by tests/fuzz.rs: a template row of 2³¹ repeats made
+        // parse_manifest ask for 17 GB.
+        assert_bad(
+            "repeats = 2",
+            "repeats = 2147483647",
+            &["`repeats` must be at most 1000"],
         );
     }
 }
