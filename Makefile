@@ -48,13 +48,15 @@ demo: build
 	@echo "  embree-oracle (full), embree-speed and aa-images (quick); full runs: see book/src/reproducing.md"
 
 ## test: every test, including the real-mesh readers, the Embree
-## cross-checks and the CLI; the API docs with no broken links; then the
-## book is built (figures from the quick experiments, run with the test
-## build) and its links and images checked.
+## cross-checks and the CLI; the API docs with no broken links; the Slurm
+## and GNU-parallel scripts on a throwaway local cluster (scripts/test-slurm);
+## then the book is built (figures from the quick experiments, run with the
+## test build) and its links and images checked.
 test: deps
 	$(CARGO) test --all-targets
 	$(CARGO) test --doc
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps
+	RAYLAB=target/debug/raylab scripts/test-slurm
 	RAYLAB=target/debug/raylab scripts/book
 
 ## book: the book (book/book/index.html): the quick experiments make its

@@ -116,6 +116,8 @@ pub enum CameraError {
     Aspect(f32),
     #[error("image size must be at least 1×1, got {0}×{1}")]
     Size(u32, u32),
+    #[error("`{0}` must be finite, got {1}")]
+    NotFinite(&'static str, Vec3),
 }
 
 impl Camera {
@@ -134,6 +136,11 @@ impl Camera {
     ) -> Result<Self, CameraError> {
         if width == 0 || height == 0 {
             return Err(CameraError::Size(width, height));
+        }
+        for (name, v) in [("eye", eye), ("look_at", look_at), ("up", up)] {
+            if !v.is_finite() {
+                return Err(CameraError::NotFinite(name, v));
+            }
         }
         if !(fov_deg > 0.0 && fov_deg < 180.0) {
             return Err(CameraError::ViewAngle(fov_deg));

@@ -69,6 +69,17 @@ enum Command {
     /// warns when it is one.
     #[command(after_long_help = experiment::study::kinds_help())]
     Experiment(ExperimentArgs),
+    /// Merge the shards of an experiment (`experiment --shard I/N`) into
+    /// one data.csv, meta.json and the manifest's figures.
+    ///
+    /// Refuses shards of different manifests (the manifest hash in their
+    /// meta.json), raylab versions, git revisions or shard counts, a shard
+    /// given twice, and rows that appear in two shards; lists the runs that
+    /// no shard has (and fails unless --allow-missing). The rows are written
+    /// in the manifest's order, as an unsharded run writes them; meta.json
+    /// lists each shard's machine, threads, start, end and wall time.
+    /// scripts/slurm/ and scripts/parallel/ run shards and merge them.
+    Merge(MergeArgs),
     /// Count what tracing a scene costs with each accelerator: a pbrt-style
     /// table (rays by kind, nodes visited, volume and primitive tests, per-ray
     /// means, p50/p90/p99/max per camera ray, BVH shape, build and render
@@ -249,6 +260,25 @@ struct ExperimentArgs {
     /// Worker threads (default: the manifest's `threads`, else all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// Run only shard I of N (1 ≤ I ≤ N): every N-th run of the plan,
+    /// starting at the I-th, into its own folder (default
+    /// out/NAME.shards/I-of-N beside the manifest), without figures; join
+    /// the shards with `raylab merge`.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<experiment::Shard>,
+}
+
+#[derive(clap::Args, Debug)]
+struct MergeArgs {
+    /// The merged experiment's folder (created when missing).
+    out: PathBuf,
+    /// The shards' folders (each written by `experiment --shard I/N`).
+    #[arg(required = true)]
+    shards: Vec<PathBuf>,
+    /// Merge and draw the figures even when some runs are in no shard
+    /// (meta.json then says "complete": false).
+    #[arg(long)]
+    allow_missing: bool,
 }
 
 /// What `render` and `grad` share: the scene and how to render it.
@@ -393,6 +423,14 @@ fn main() -> ExitCode {
         Command::Grad(args) => cmd_grad(args),
         Command::Diff(args) => cmd_diff(args),
         Command::Experiment(args) => cmd_experiment(args),
+        Command::Merge(args) => {
+            let opts = experiment::MergeOptions {
+                out_dir: args.out,
+                shards: args.shards,
+                allow_missing: args.allow_missing,
+            };
+            report::MergeReport::run(&opts).and_then(|r| print_stdout(&r.to_string()))
+        }
         Command::Stats {
             scene,
             accel,
@@ -481,6 +519,7 @@ fn cmd_experiment(args: ExperimentArgs) -> Result<()> {
         out_dir: args.out,
         threads: args.threads,
         progress: true,
+        shard: args.shard,
     };
     print_stdout(&report::ExperimentReport::run(&args.manifest, &opts)?.to_string())
 }

@@ -312,7 +312,7 @@ fn aa_images_study_measures_against_a_cached_reference() {
         resume: false,
         out_dir: Some(out.clone()),
         threads: Some(2),
-        progress: false,
+        ..Options::default()
     };
     run_experiment(&path, &opts).unwrap();
     let reference = out.join("references/zone-plate-32x32-jitter8.exr");

@@ -134,6 +134,74 @@ fn bad_values_are_rejected() {
     );
     let mesh = format!("{GOOD}\n[[mesh]]\nfile = \"missing.off\"\nmaterial = \"m\"\n");
     assert_render_fails(&mesh, &["bad.toml:", "missing.off"]);
+    // Every number finite, named by its field: a NaN eye is not "eye and
+    // look_at coincide", and 1e39 is ∞ as the f32 the renderer uses.
+    assert_render_fails(
+        &GOOD.replace("[0.0, 0.0, 5.0]", "[0.0, 0.0, nan]"),
+        &["bad.toml:5:", "`camera.eye[2]` is not a number"],
+    );
+    assert_render_fails(
+        &GOOD.replace("position = [2.0, 2.0, 2.0]", "position = [2.0, inf, 2.0]"),
+        &["bad.toml:", "`light[0].position[1]` is infinite"],
+    );
+    assert_render_fails(
+        &GOOD.replace("radius = 1.0", "radius = 1e39"),
+        &["bad.toml:", "`sphere[0].radius`", "32-bit float"],
+    );
+    // An image the machine cannot hold: refused before allocating, with
+    // the size and the memory it would need.
+    let huge = GOOD.replace("width = 16\nheight = 12", "width = 100000\nheight = 100000");
+    assert_render_fails(
+        &huge,
+        &["bad.toml:", "100000×100000", "would need", "GB of memory"],
+    );
+}
+
+/// Two parallel mirrors and no cut-off but a depth of a million: the
+/// Whitted recursion, run as a loop, cannot overflow the stack (it used
+/// to abort with signal 6); 2×2 pixels of a million bounces each.
+#[test]
+fn mirror_corridor_of_a_million_bounces_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(
+        dir.path(),
+        "corridor.toml",
+        r#"[image]
+width = 2
+height = 2
+[render]
+max_depth = 1000000
+min_weight = 0.0
+[camera]
+eye = [0.0, 0.0, 0.0]
+look_at = [1.0, 0.0, 0.0]
+fov = 30.0
+[materials.mirror]
+color = [0.1, 0.1, 0.1]
+reflectivity = 1.0
+[[plane]]
+point = [5.0, 0.0, 0.0]
+normal = [-1.0, 0.0, 0.0]
+material = "mirror"
+[[plane]]
+point = [-5.0, 0.0, 0.0]
+normal = [1.0, 0.0, 0.0]
+material = "mirror"
+[[light]]
+position = [0.0, 1.0, 0.0]
+"#,
+    );
+    let out = dir.path().join("c.png");
+    let o = raylab(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("3999996 reflection"), "{text}");
+    assert!(out.is_file());
 }
 
 #[test]
@@ -302,20 +370,26 @@ mod validate {
     }
 
     /// Rays aimed at edges disagree now and then by rounding: demanding
-    /// none (`--max-borderline 0`) is a breach; so is |Δt|/t ≤ 0 on an
-    /// unperturbed mesh, since two different formulas do not round alike.
+    /// none (`--max-borderline 0`) is a breach. (`--t-rel 0` no longer is
+    /// on the camel: the rounding floor of the coordinates, which now
+    /// includes the triangle's own, covers every |Δt| there.)
     #[test]
     fn tolerance_breach_exits_non_zero() {
         let mesh = external("cgal/camel.off");
-        for extra in [["--max-borderline", "0"], ["--t-rel", "0"]] {
-            let mut args = vec!["validate", "--mesh", &mesh, "--rays", "2000"];
-            args.extend(extra);
-            let o = raylab(&args);
-            let err = stderr(&o);
-            assert!(!o.status.success(), "{extra:?} should fail");
-            assert!(err.contains("tolerances exceeded"), "{err}");
-            assert!(!err.contains("panicked"), "{err}");
-        }
+        let args = [
+            "validate",
+            "--mesh",
+            &mesh,
+            "--rays",
+            "2000",
+            "--max-borderline",
+            "0",
+        ];
+        let o = raylab(&args);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "--max-borderline 0 should fail");
+        assert!(err.contains("tolerances exceeded"), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
     }
 
     #[test]

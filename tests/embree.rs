@@ -225,7 +225,8 @@ fn rays_from_inside_report_the_exit() {
                     .trace(&ray, f32::INFINITY)
                     .expect("a ray from inside hits");
                 assert_eq!(e.prim, i as u32);
-                let tol = t_tolerance(&TOL, &ray, &ours, incidence(&prims, &ray, i as u32, &ours));
+                let cos = incidence(&prims, &ray, i as u32, &ours);
+                let tol = t_tolerance(&TOL, &ray, &prims[i], &ours, cos);
                 assert!(
                     (e.hit.t - ours.t).abs() <= tol,
                     "{ray:?}: {} vs {}",
@@ -287,7 +288,8 @@ fn mixed_scene_with_finite_t_max() {
             (None, None) => assert!(!blocked, "ray {k}: occluded without a closest hit"),
             (Some((pa, ha)), Some((pb, hb))) if pa == pb => {
                 assert!(blocked, "ray {k}: a closest hit but not occluded");
-                let tol = t_tolerance(&TOL, ray, &ha, incidence(&prims, ray, pa, &ha));
+                let cos = incidence(&prims, ray, pa, &ha);
+                let tol = t_tolerance(&TOL, ray, &prims[pa as usize], &ha, cos);
                 assert!((ha.t - hb.t).abs() <= tol, "ray {k}: {ha:?} vs {hb:?}");
             }
             _ => {
@@ -298,7 +300,8 @@ fn mixed_scene_with_finite_t_max() {
                     (x, y) => x.or(y),
                 };
                 let ok = first.is_some_and(|(p, h)| {
-                    let near_end = (h.t - t_max).abs() <= t_tolerance(&TOL, ray, &h, 1.0);
+                    let prim = &prims[p as usize];
+                    let near_end = (h.t - t_max).abs() <= t_tolerance(&TOL, ray, prim, &h, 1.0);
                     near_end || place(&TOL, &prims, ray, p, &h) != Place::Elsewhere
                 });
                 assert!(

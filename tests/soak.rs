@@ -251,12 +251,10 @@ fn scene_text(index: usize) -> Generated {
         );
     }
     for _ in 0..g.n(1, 3) {
+        let (x, y, z) = (g.f(-4.0, 4.0), g.f(1.0, 5.0), g.f(-2.0, 6.0));
         let _ = write!(
             t,
-            "[[light]]\nposition = [{}, {}, {}]\ncolor = {}\nintensity = {}\nfalloff = \"{}\"\nwhitted_only = {}\n",
-            g.f(-4.0, 4.0),
-            g.f(1.0, 5.0),
-            g.f(-2.0, 6.0),
+            "[[light]]\nposition = [{x}, {y}, {z}]\ncolor = {}\nintensity = {}\nfalloff = \"{}\"\nwhitted_only = {}\n",
             g.v(0.5, 1.0),
             g.f(0.2, 1.5),
             g.pick(&["none", "inverse_square"]),

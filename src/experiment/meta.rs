@@ -10,7 +10,7 @@
 
 use crate::io::write_atomically;
 use anyhow::Context;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::process::Command;
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -19,7 +19,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 pub const META_FILE: &str = "meta.json";
 
 /// The mean of one series of a ratio figure.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SeriesMean {
     /// The series' legend text.
     pub label: String,
@@ -33,7 +33,7 @@ pub struct SeriesMean {
 
 /// The means of a ratio figure's series: the measured ones beside the
 /// references (e.g. raylab's mean T beside S1's published 3.32).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RatioSummary {
     /// The figure's file stem.
     pub figure: String,
@@ -44,7 +44,7 @@ pub struct RatioSummary {
 }
 
 /// Everything `meta.json` holds.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Meta {
     /// The experiment's name.
     pub name: String,
@@ -52,6 +52,24 @@ pub struct Meta {
     pub kind: String,
     /// The manifest as run, parameters expanded.
     pub manifest: serde_json::Value,
+    /// [`super::shard::manifest_hash`] of the manifest's text and `--quick`:
+    /// equal for every shard of one experiment.
+    #[serde(default)]
+    pub manifest_hash: String,
+    /// The manifest file as written, from which `raylab merge` rebuilds the
+    /// plan and draws the figures.
+    #[serde(default)]
+    pub manifest_text: String,
+    /// The shard this folder holds (`--shard I/N`), or null for a whole run
+    /// or a merge.
+    #[serde(default)]
+    pub shard: Option<super::shard::Shard>,
+    /// A merge's shards: where each ran and what it did (empty otherwise).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shards: Vec<ShardRecord>,
+    /// The machine's host name.
+    #[serde(default)]
+    pub host: String,
     /// `CARGO_PKG_VERSION` of the raylab that ran it.
     pub raylab_version: String,
     /// `git rev-parse HEAD` in the manifest's folder, or "unknown".
@@ -91,7 +109,51 @@ pub struct Meta {
     pub summary: Vec<RatioSummary>,
 }
 
+/// One shard of a merged experiment, as its own `meta.json` recorded it.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ShardRecord {
+    /// Which shard.
+    pub shard: super::shard::Shard,
+    /// The folder it was merged from.
+    pub dir: String,
+    /// Its machine: host name and CPU model.
+    pub host: String,
+    /// CPU model.
+    pub cpu_model: String,
+    /// Logical CPUs of its machine.
+    pub logical_cpus: usize,
+    /// Worker threads it used.
+    pub threads: usize,
+    /// Whether its binary was optimised.
+    pub optimised: bool,
+    /// Its git revision.
+    pub git_revision: String,
+    /// UTC start, ISO 8601.
+    pub started_utc: String,
+    /// UTC end (null when it did not finish).
+    pub finished_utc: Option<String>,
+    /// Its wall time in seconds.
+    pub wall_time_s: f64,
+    /// Rows it contributed.
+    pub rows: usize,
+    /// Whether it finished every run it was dealt.
+    pub complete: bool,
+}
+
 impl Meta {
+    /// Read `dir/meta.json`.
+    pub fn read(dir: &Path) -> anyhow::Result<Meta> {
+        let path = dir.join(META_FILE);
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("{}: cannot read", path.display()))?;
+        serde_json::from_str(&text).with_context(|| {
+            format!(
+                "{}: not an experiment's meta.json (or from an older raylab)",
+                path.display()
+            )
+        })
+    }
+
     /// Write `dir/meta.json` (pretty-printed, atomically).
     pub fn write(&self, dir: &Path) -> anyhow::Result<()> {
         let path = dir.join(META_FILE);

@@ -108,6 +108,19 @@
 //!   each series of a ratio figure (and of its references) is returned in
 //!   the [`Report`], printed by `raylab experiment` and kept in `meta.json`.
 //!
+//! # Shards and merging
+//!
+//! `--shard I/N` runs a deterministic 1/N of the runs into its own folder
+//! (default `out/NAME.shards/I-of-N`), with the manifest's text and hash in
+//! `meta.json` and no figures ([`shard`] says how the runs are dealt);
+//! `raylab merge OUT SHARD_DIR…` ([`merge`]) checks that the shards belong
+//! together, writes one `data.csv` in plan order and one `meta.json`
+//! listing every shard's machine and times, and draws the figures. The
+//! rows are those an unsharded run writes: the same keys, and the same
+//! counters (timings are measured on whichever machine ran the shard).
+//! `scripts/slurm/` and `scripts/parallel/` run the shards on a Slurm
+//! cluster and with GNU parallel.
+//!
 //! # Study kinds
 //!
 //! The kinds are listed once, in [`study::KINDS`] (the registry that the
@@ -137,14 +150,18 @@
 pub mod data;
 pub mod figures;
 pub mod manifest;
+pub mod merge;
 pub mod meta;
 pub mod params;
 pub mod row;
+pub mod shard;
 pub mod study;
 pub mod sweep;
 
 pub use manifest::{load_manifest, parse_manifest, Manifest, Plan};
+pub use merge::{merge_shards, MergeOptions};
 pub use meta::RatioSummary;
+pub use shard::Shard;
 
 use anyhow::{bail, Context};
 use data::{RowWriter, Table, DATA_FILE};
@@ -170,6 +187,9 @@ pub struct Options {
     /// Print status lines and a progress bar on stderr (the bar only when
     /// stderr is a terminal).
     pub progress: bool,
+    /// Run only this shard's runs ([`shard`]), into its own folder, and
+    /// draw no figures.
+    pub shard: Option<Shard>,
 }
 
 /// What an experiment did.
@@ -193,6 +213,8 @@ pub struct Report {
     pub figures: Vec<String>,
     /// Means of the ratio figures beside their references.
     pub summary: Vec<RatioSummary>,
+    /// The shard run, if one was.
+    pub shard: Option<Shard>,
 }
 
 /// Run the experiment described by the manifest at `path`.
@@ -210,10 +232,15 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
     anyhow::ensure!(threads >= 1, "the thread count must be at least 1");
     let plan = manifest.plan()?;
     let study = manifest.study();
-    let out_dir = opts
-        .out_dir
-        .clone()
-        .unwrap_or_else(|| manifest.base_dir().join("out").join(&manifest.name));
+    let out_dir = opts.out_dir.clone().unwrap_or_else(|| {
+        let out = manifest.base_dir().join("out");
+        match opts.shard {
+            Some(s) => out
+                .join(format!("{}.shards", manifest.name))
+                .join(s.dir_name()),
+            None => out.join(&manifest.name),
+        }
+    });
     std::fs::create_dir_all(&out_dir)
         .with_context(|| format!("{}: cannot create the output folder", out_dir.display()))?;
 
@@ -258,18 +285,31 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
             HashSet::new(),
         )
     };
-    let todo: Vec<_> = plan
+    let dealt = opts.shard.map(|s| shard::deal(&manifest, &plan, s.count));
+    let mine: Vec<_> = plan
         .runs
         .iter()
+        .enumerate()
+        .filter(|(p, _)| dealt.as_ref().map_or(true, |d| Some(d[*p]) == opts.shard))
+        .map(|(_, r)| r)
+        .collect();
+    let todo: Vec<_> = mine
+        .iter()
+        .copied()
         .filter(|r| !done.contains(&plan.key(r)))
         .collect();
-    let skipped = plan.runs.len() - todo.len();
+    let skipped = mine.len() - todo.len();
 
     let (git_revision, git_dirty) = meta::git_revision(manifest.base_dir());
     let mut meta = Meta {
         name: manifest.name.clone(),
         kind: manifest.kind.clone(),
         manifest: manifest.to_json(),
+        manifest_hash: shard::manifest_hash(&manifest.text, opts.quick),
+        manifest_text: manifest.text.clone(),
+        shard: opts.shard,
+        shards: Vec::new(),
+        host: shard::host_name(),
         raylab_version: env!("CARGO_PKG_VERSION").to_string(),
         git_revision,
         git_dirty,
@@ -282,7 +322,7 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
         wall_time_s: 0.0,
         quick: opts.quick,
         resumed: opts.resume,
-        runs_total: plan.runs.len(),
+        runs_total: mine.len(),
         runs_skipped: skipped,
         runs_done: 0,
         complete: false,
@@ -293,11 +333,14 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
 
     if opts.progress {
         eprintln!(
-            "experiment {} ({}{}): {} runs{}, {} repeats + {} warm-up, {} threads → {}",
+            "experiment {} ({}{}{}): {} runs{}, {} repeats + {} warm-up, {} threads → {}",
             manifest.name,
             manifest.kind,
             if opts.quick { ", quick" } else { "" },
-            plan.runs.len(),
+            opts.shard
+                .map(|s| format!(", shard {s} of {} runs", plan.runs.len()))
+                .unwrap_or_default(),
+            mine.len(),
             if skipped > 0 {
                 format!(" ({skipped} already in data.csv)")
             } else {
@@ -342,7 +385,7 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
                     "{}: run `{what}` failed ({} of {} runs finished are in {})",
                     manifest.path.display(),
                     meta.runs_done + skipped,
-                    plan.runs.len(),
+                    mine.len(),
                     data_path.display()
                 )));
             }
@@ -376,22 +419,14 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
     bar.finish_and_clear();
     drop(writer);
 
-    // Figures, from everything data.csv now holds.
-    let (table, _) = Table::read(&data_path)?;
-    let mut failures = Vec::new();
-    for spec in &manifest.figures {
-        match figures::draw(spec, &table, &plan.param_columns, &out_dir) {
-            Ok(summary) => {
-                meta.figures.push(spec.file.clone());
-                meta.summary.extend(summary);
-            }
-            Err(e) => failures.push(format!("{e:#}")),
-        }
-    }
-    match study.figures(&table, &out_dir) {
-        Ok(stems) => meta.figures.extend(stems),
-        Err(e) => failures.push(format!("{} figures: {e:#}", manifest.kind)),
-    }
+    // Figures, from everything data.csv now holds (a shard draws none:
+    // `raylab merge` draws them from all the rows).
+    let failures = if opts.shard.is_some() {
+        Vec::new()
+    } else {
+        let (table, _) = Table::read(&data_path)?;
+        draw_figures(&manifest, &plan, &table, &out_dir, &mut meta)
+    };
     meta.wall_time_s = clock.elapsed().as_secs_f64();
     meta.finished_utc = Some(meta::utc_iso8601(SystemTime::now()));
     meta.complete = failures.is_empty();
@@ -407,12 +442,40 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
     Ok(Report {
         name: manifest.name.clone(),
         out_dir,
-        runs_total: plan.runs.len(),
+        runs_total: mine.len(),
         runs_skipped: skipped,
         runs_done: meta.runs_done,
         threads,
         wall_time_s: meta.wall_time_s,
         figures: meta.figures.clone(),
         summary: meta.summary.clone(),
+        shard: opts.shard,
     })
+}
+
+/// Draw the manifest's figures and the study's own from `table` into
+/// `out_dir`, recording them (and the ratio means) in `meta`; returns the
+/// failures, one message each.
+fn draw_figures(
+    manifest: &Manifest,
+    plan: &Plan,
+    table: &Table,
+    out_dir: &Path,
+    meta: &mut Meta,
+) -> Vec<String> {
+    let mut failures = Vec::new();
+    for spec in &manifest.figures {
+        match figures::draw(spec, table, &plan.param_columns, out_dir) {
+            Ok(summary) => {
+                meta.figures.push(spec.file.clone());
+                meta.summary.extend(summary);
+            }
+            Err(e) => failures.push(format!("{e:#}")),
+        }
+    }
+    match manifest.study().figures(table, out_dir) {
+        Ok(stems) => meta.figures.extend(stems),
+        Err(e) => failures.push(format!("{} figures: {e:#}", manifest.kind)),
+    }
+    failures
 }

@@ -8,6 +8,7 @@
 //! the kept samples ([`Film::reconstruct`]).
 
 pub mod filter;
+pub mod memory;
 
 pub use filter::Filter;
 

@@ -3,7 +3,8 @@
 //! Colour at a hit = emission + ambient + Σ over visible lights (diffuse +
 //! specular, Phong) + k_r·reflected + k_t·refracted. One shadow ray per
 //! light; a light is blocked by any surface (transparent ones included:
-//! hard geometric shadows, as in S1). Recursion stops at the depth limit,
+//! hard geometric shadows, as in S1). The recursion (run as a loop over
+//! an explicit stack of pending rays, [`trace`]) stops at the depth limit,
 //! when a ray's weight (the product of k_r and k_t factors along its path)
 //! falls below the threshold, or when nothing is hit within the maximum
 //! distance (background colour).
@@ -25,6 +26,7 @@ use crate::math::{Color, Ray, RayR, Real, V3};
 use crate::scene::{Scene, View};
 use crate::shading::{emission_and_ambient, phong, reflect, refract, Phong};
 use crate::stats::{RayKind, Stats};
+use smallvec::SmallVec;
 
 /// Media the ray is inside, innermost last. The outermost medium (air,
 /// index 1) is implicit.
@@ -123,10 +125,37 @@ fn medium_ior<V: View>(view: &V, media: &MediumStack) -> V::R {
 }
 
 // ANCHOR: whitted_trace
-/// The recursive trace. `ray.dir` must be unit length (so `t` is a
-/// distance for the maximum-distance cut-off). Which rays are traced (the
-/// depth and weight cut-offs, total internal reflection) is decided on
-/// values, as the `f32` render decides it.
+/// A ray waiting to be traced: the factor its colour is scaled by on the
+/// way to the camera (the product of the k_t and k_r it passed), its
+/// depth, its weight (the same product, as a value, for the cut-off) and
+/// the media it is inside.
+#[derive(Clone, Copy)]
+struct Pending<R: Real> {
+    ray: RayR<R>,
+    factor: R,
+    depth: u32,
+    weight: f32,
+    media: MediumStack,
+}
+
+/// Rays waiting to be traced. Each ray spawns at most two (refraction and
+/// reflection) and the last pushed is traced first, so the stack holds at
+/// most one waiting ray per level of the tree: eight fit inline, and a
+/// deeper tree (glass behind glass behind glass …) spills to the heap.
+/// Without recursion no scene can overflow the thread's stack, whatever
+/// its `max_depth`.
+type PendingStack<R> = SmallVec<[Pending<R>; 8]>;
+
+/// The colour along `ray` (unit direction, so `t` is a distance for the
+/// maximum-distance cut-off), entering with `depth`, `weight` and
+/// `media`: Whitted's recursion as a loop. The colour of a ray is its local
+/// terms plus k_t × the refracted ray's colour plus k_r × the reflected
+/// ray's; unrolled, it is the sum over every ray of the tree of its local
+/// terms times the product of the factors on its way up, which is what the
+/// loop adds, visiting the rays in the recursion's order (refraction
+/// before reflection). Which rays are traced (the depth and weight
+/// cut-offs, total internal reflection) is decided on values, as the `f32`
+/// render decides it.
 pub fn trace<V: View, S: Stats>(
     view: &V,
     ray: &RayR<V::R>,
@@ -135,8 +164,33 @@ pub fn trace<V: View, S: Stats>(
     media: MediumStack,
     stats: &mut S,
 ) -> V3<V::R> {
+    let mut color = V3::zero();
+    let mut pending: PendingStack<V::R> = SmallVec::new();
+    pending.push(Pending {
+        ray: *ray,
+        factor: V::R::one(),
+        depth,
+        weight,
+        media,
+    });
+    while let Some(p) = pending.pop() {
+        color += shade(view, &p, &mut pending, stats) * p.factor;
+    }
+    color
+}
+
+/// One ray of the tree: its local terms (background, or emission, ambient
+/// and the lights' Phong terms), with the rays it spawns pushed on
+/// `pending` (reflection first, so refraction is traced first).
+fn shade<V: View, S: Stats>(
+    view: &V,
+    p: &Pending<V::R>,
+    pending: &mut PendingStack<V::R>,
+    stats: &mut S,
+) -> V3<V::R> {
     let scene = view.scene();
     let set = &scene.settings;
+    let ray = &p.ray;
     let Some(found) = scene.intersect(&ray.value(), set.max_distance, stats) else {
         return view.background();
     };
@@ -163,43 +217,53 @@ pub fn trace<V: View, S: Stats>(
         }
     }
 
-    if depth + 1 >= set.max_depth {
+    if p.depth + 1 >= set.max_depth {
         return color;
     }
     let (transparency, ior) = (m.transparency.value(), m.ior.value());
     let mut reflect_weight = m.reflectivity;
-    if transparency > 0.0 && weight * transparency >= set.min_weight {
+    let mut refracted = None;
+    if transparency > 0.0 && p.weight * transparency >= set.min_weight {
         // Entering through a front face, leaving through a back face.
         let (n1, n2, next) = if found.front_face {
             (
-                medium_ior(view, &media),
+                medium_ior(view, &p.media),
                 m.ior,
-                media.entered(found.object, ior),
+                p.media.entered(found.object, ior),
             )
         } else {
-            let next = media.left(found.object);
-            (medium_ior(view, &media), medium_ior(view, &next), next)
+            let next = p.media.left(found.object);
+            (medium_ior(view, &p.media), medium_ior(view, &next), next)
         };
         match refract(view_dir, n, n1 / n2) {
             Some(t_dir) => {
                 let t_dir = t_dir.normalize();
-                let r = RayR::new(hit.spawn_origin(t_dir), t_dir);
                 stats.ray(RayKind::Refraction);
-                let w = weight * transparency;
-                color += trace(view, &r, depth + 1, w, next, stats) * m.transparency;
+                refracted = Some(Pending {
+                    ray: RayR::new(hit.spawn_origin(t_dir), t_dir),
+                    factor: p.factor * m.transparency,
+                    depth: p.depth + 1,
+                    weight: p.weight * transparency,
+                    media: next,
+                });
             }
             // Total internal reflection: the transmitted share is reflected.
             None => reflect_weight += m.transparency,
         }
     }
     let rw = reflect_weight.value();
-    if rw > 0.0 && weight * rw >= set.min_weight {
+    if rw > 0.0 && p.weight * rw >= set.min_weight {
         let r_dir = reflect(ray.dir, n).normalize();
-        let r = RayR::new(hit.spawn_origin(r_dir), r_dir);
         stats.ray(RayKind::Reflection);
-        let w = weight * rw;
-        color += trace(view, &r, depth + 1, w, media, stats) * reflect_weight;
+        pending.push(Pending {
+            ray: RayR::new(hit.spawn_origin(r_dir), r_dir),
+            factor: p.factor * reflect_weight,
+            depth: p.depth + 1,
+            weight: p.weight * rw,
+            media: p.media,
+        });
     }
+    pending.extend(refracted);
     color
 }
 // ANCHOR_END: whitted_trace

@@ -6,6 +6,7 @@ pub mod image;
 pub mod mesh;
 pub mod procedural;
 pub mod scene_file;
+pub mod toml_numbers;
 
 use std::fmt;
 use std::path::{Path, PathBuf};

@@ -234,6 +234,7 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
         let (l, c) = line_col(text, span.start);
         InputError::new(path, Place::LineCol(l, c), msg)
     };
+    super::toml_numbers::check_floats(text, path)?;
     let file: SceneFile = toml::from_str(text).map_err(|e| match e.span() {
         Some(span) => at(span, super::toml_message(text, &e)),
         None => InputError::file(path, super::toml_message(text, &e)),
@@ -437,6 +438,13 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
     let aspect = c.aspect.unwrap_or(width as f32 / height.max(1) as f32);
     let camera = Camera::new(c.eye, c.look_at, c.up, c.fov, aspect, c.near, width, height)
         .map_err(|e| InputError::file(path, format!("[camera]: {e}")))?;
+    let spp = settings.sampler.spp();
+    let keep_samples = settings.filter != Filter::Box;
+    crate::film::memory::check(
+        || format!("[image]: a {width}×{height} image at {spp} samples per pixel"),
+        crate::film::memory::render_bytes(width, height, spp, keep_samples),
+    )
+    .map_err(|e| InputError::file(path, e.to_string()))?;
 
     Scene::new(
         camera, settings, materials, objects, lights, prims, meshes, accel,

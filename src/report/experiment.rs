@@ -1,9 +1,11 @@
-//! The `raylab experiment` report: run a manifest's sweeps and say what was
-//! run and written (runs, threads, time, data files, figures, and the means
-//! of the ratio figures). Part of the top-layer [`crate::report`]; the
-//! experiment itself is [`crate::experiment`].
+//! The `raylab experiment` and `raylab merge` reports: run a manifest's
+//! sweeps (or merge its shards) and say what was run and written (runs,
+//! threads, time, data files, figures, and the means of the ratio
+//! figures). Part of the top-layer [`crate::report`]; the experiment itself
+//! is [`crate::experiment`].
 
-use crate::experiment::{run_experiment, Options, Report};
+use crate::experiment::merge::{merge_shards, MergeOptions, Merged};
+use crate::experiment::{run_experiment, Options, RatioSummary, Report};
 use anyhow::Result;
 use std::fmt;
 use std::path::Path;
@@ -26,31 +28,91 @@ impl fmt::Display for ExperimentReport {
     /// One line of totals, the files written, and the summary means.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let report = &self.0;
-        let dir = report.out_dir.display();
         writeln!(
             f,
-            "experiment {}: {} runs ({} done now, {} kept from data.csv), {} threads, {:.1} s",
+            "experiment {}{}: {} runs ({} done now, {} kept from data.csv), {} threads, {:.1} s",
             report.name,
+            report
+                .shard
+                .map(|s| format!(" shard {s}"))
+                .unwrap_or_default(),
             report.runs_total,
             report.runs_done,
             report.runs_skipped,
             report.threads,
             report.wall_time_s
         )?;
-        writeln!(f, "wrote      {dir}/{{data.csv, meta.json}}")?;
-        for fig in &report.figures {
-            writeln!(f, "figure     {dir}/{fig}.{{png,svg}}")?;
+        write_outputs(f, &report.out_dir, &report.figures, &report.summary)
+    }
+}
+
+/// The files written and the ratio means, as both reports print them.
+fn write_outputs(
+    f: &mut fmt::Formatter<'_>,
+    out_dir: &Path,
+    figures: &[String],
+    summary: &[RatioSummary],
+) -> fmt::Result {
+    let dir = out_dir.display();
+    writeln!(f, "wrote      {dir}/{{data.csv, meta.json}}")?;
+    for fig in figures {
+        writeln!(f, "figure     {dir}/{fig}.{{png,svg}}")?;
+    }
+    for s in summary {
+        writeln!(f, "summary    {}: mean of {}", s.figure, s.label)?;
+        for m in &s.series {
+            writeln!(
+                f,
+                "             {:.2} over {:>2} points  {}",
+                m.mean, m.count, m.label
+            )?;
         }
-        for s in &report.summary {
-            writeln!(f, "summary    {}: mean of {}", s.figure, s.label)?;
-            for m in &s.series {
-                writeln!(
-                    f,
-                    "             {:.2} over {:>2} points  {}",
-                    m.mean, m.count, m.label
-                )?;
-            }
+    }
+    Ok(())
+}
+
+/// What `raylab merge` did.
+#[derive(Clone, Debug)]
+pub struct MergeReport(pub Merged);
+
+impl MergeReport {
+    /// Merge the shards named in `opts`.
+    pub fn run(opts: &MergeOptions) -> Result<Self> {
+        merge_shards(opts).map(Self)
+    }
+}
+
+impl fmt::Display for MergeReport {
+    /// A line per shard (machine, threads, rows, time), the totals, any
+    /// missing runs, then the files written and the summary means.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = &self.0;
+        writeln!(
+            f,
+            "merge {}: {} shards, {} of {} runs, {:.1} s",
+            m.name,
+            m.shards.len(),
+            m.rows,
+            m.runs_total,
+            m.wall_time_s
+        )?;
+        for s in &m.shards {
+            writeln!(
+                f,
+                "shard      {:<7} {:>4} rows  {:>8.1} s  {} threads  {} ({}){}  {}",
+                s.shard.to_string(),
+                s.rows,
+                s.wall_time_s,
+                s.threads,
+                s.host,
+                s.cpu_model,
+                if s.complete { "" } else { "  INCOMPLETE" },
+                s.dir
+            )?;
         }
-        Ok(())
+        for (shard, what) in &m.missing {
+            writeln!(f, "missing    shard {shard}: {what}")?;
+        }
+        write_outputs(f, &m.out_dir, &m.figures, &m.summary)
     }
 }

@@ -23,7 +23,7 @@ pub mod stats;
 pub mod validate;
 
 pub use diff::DiffReport;
-pub use experiment::ExperimentReport;
+pub use experiment::{ExperimentReport, MergeReport};
 pub use render::{RenderOptions, RenderReport};
 pub use spectrum::{SpectrumOptions, SpectrumReport};
 pub use stats::StatsOptions;

@@ -24,9 +24,9 @@ pub struct Tally {
     /// Different primitives at equal t away from edges: coincident faces.
     pub tie_coincident: u64,
     /// Hit/miss disagreements by [`Place`] (in [`Place::ALL`] order).
-    pub hit_miss: [u64; 4],
+    pub hit_miss: [u64; Place::ALL.len()],
     /// Different primitives at different t, by [`Place`] of the first.
-    pub prim: [u64; 4],
+    pub prim: [u64; Place::ALL.len()],
     /// Edge and vertex disagreements where raylab missed (Embree was
     /// watertight) and where Embree missed.
     pub edge_leaks: (u64, u64),
@@ -56,7 +56,7 @@ impl Tally {
             Outcome::Tie { coincident: true } => self.tie_coincident += 1,
             Outcome::Tie { coincident: false } => self.tie_edge += 1,
             Outcome::Disagree { kind, place, leak } => {
-                let k = Place::ALL.iter().position(|&p| p == place).unwrap_or(3);
+                let k = place.index();
                 match kind {
                     Kind::HitMiss => self.hit_miss[k] += 1,
                     Kind::Prim => self.prim[k] += 1,
@@ -94,7 +94,7 @@ impl Tally {
         self.agree += o.agree;
         self.tie_edge += o.tie_edge;
         self.tie_coincident += o.tie_coincident;
-        for k in 0..4 {
+        for k in 0..Place::ALL.len() {
             self.hit_miss[k] += o.hit_miss[k];
             self.prim[k] += o.prim[k];
         }
@@ -112,7 +112,7 @@ impl Tally {
 
     /// Disagreements (hit/miss and primitive) at a [`Place`].
     pub fn disagreements_at(&self, place: Place) -> u64 {
-        let k = Place::ALL.iter().position(|&p| p == place).unwrap_or(3);
+        let k = place.index();
         self.hit_miss[k] + self.prim[k]
     }
 
@@ -296,8 +296,8 @@ impl Report {
         );
         let _ = writeln!(
             s,
-            "{:<15} {:<14} {:>8} {:>8} {:>6} {:>6} | {:>6} {:>6} {:>6} {:>6} | {:>5} {:>5} | {:>5} {:>5} | {:>8} {:>8} {:>8} {:>8}",
-            "set", "accel", "rays", "hits", "tieE", "tieC", "edge", "vert", "graz", "else",
+            "{:<15} {:<14} {:>8} {:>8} {:>6} {:>6} | {:>6} {:>6} {:>6} {:>6} {:>6} | {:>5} {:>5} | {:>5} {:>5} | {:>8} {:>8} {:>8} {:>8}",
+            "set", "accel", "rays", "hits", "tieE", "tieC", "edge", "vert", "graz", "orig", "else",
             "lkR", "lkE", "anyX", "bad", "dt p50", "dt p99", "dt max", "n max"
         );
         let mut row = |set: &str, accel: &str, t: &Tally| {
@@ -305,7 +305,7 @@ impl Report {
             let n = t.normal_angle_percentiles();
             let _ = writeln!(
                 s,
-                "{:<15} {:<14} {:>8} {:>8} {:>6} {:>6} | {:>6} {:>6} {:>6} {:>6} | {:>5} {:>5} | {:>5} {:>5} | {:>8} {:>8} {:>8} {:>8}",
+                "{:<15} {:<14} {:>8} {:>8} {:>6} {:>6} | {:>6} {:>6} {:>6} {:>6} {:>6} | {:>5} {:>5} | {:>5} {:>5} | {:>8} {:>8} {:>8} {:>8}",
                 set,
                 accel,
                 t.rays,
@@ -315,6 +315,7 @@ impl Report {
                 t.disagreements_at(Place::Edge),
                 t.disagreements_at(Place::Vertex),
                 t.disagreements_at(Place::Grazing),
+                t.disagreements_at(Place::Origin),
                 t.disagreements_at(Place::Elsewhere),
                 t.edge_leaks.0,
                 t.edge_leaks.1,
@@ -332,7 +333,8 @@ impl Report {
         row("overall", "", &self.overall());
         s.push_str(
             "tieE/tieC: other primitive at equal t, at a shared edge / coincident faces; \
-             edge..else: disagreements (hit/miss or primitive) by place of the first hit; \
+             edge..else: disagreements (hit/miss or primitive) by place of the first hit \
+             (orig: at the ray's origin, a ray that starts on a surface; not counted as bad); \
              lkR/lkE: edge/vertex disagreements where raylab / Embree missed (leaked); \
              anyX: any-hit differences explained by those; bad: unexplained + tolerance breaches; \
              dt: |Δt|/t beyond the grazing angle; n: normal angle (rad)\n",

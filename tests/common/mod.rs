@@ -2,6 +2,8 @@
 //! module with `mod common;`; not every file uses every item).
 #![allow(dead_code, unused_imports)]
 
+pub mod experiment;
+
 /// The library's generator, shared by the tests.
 pub use raylab::math::SplitMix64;
 

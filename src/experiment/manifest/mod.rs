@@ -181,7 +181,9 @@ pub struct Manifest {
     pub quick_applied: bool,
     /// The figures to draw from `data.csv`.
     pub figures: Vec<FigureSpec>,
-    text: String,
+    /// The manifest file as written (kept in `meta.json`, so `raylab
+    /// merge` can rebuild the plan of sharded runs).
+    pub text: String,
     kind_span: Range<usize>,
 }
 

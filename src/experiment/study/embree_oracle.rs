@@ -123,6 +123,8 @@ pub struct EmbreeOracleRow {
     pub vertex: u64,
     /// Disagreements at grazing angles.
     pub grazing: u64,
+    /// Disagreements at the ray's origin (rays that start on a surface).
+    pub origin: u64,
     /// Disagreements elsewhere.
     pub elsewhere: u64,
     /// Edge and vertex rays where raylab missed.
@@ -247,6 +249,7 @@ impl Study for EmbreeOracle {
             edge: t.disagreements_at(Place::Edge),
             vertex: t.disagreements_at(Place::Vertex),
             grazing: t.disagreements_at(Place::Grazing),
+            origin: t.disagreements_at(Place::Origin),
             elsewhere: t.disagreements_at(Place::Elsewhere),
             leak_raylab: t.edge_leaks.0,
             leak_embree: t.edge_leaks.1,
