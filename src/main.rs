@@ -33,6 +33,10 @@ enum Command {
     /// variance; with --reference also MSE and relMSE against it. An EXR
     /// output holds channels R, G, B (each pixel's mean), variance.R/G/B
     /// (the unbiased sample variance of its samples) and count (samples).
+    ///
+    /// On a terminal, a render that takes more than a second shows a
+    /// progress bar (rows, rate, ETA) on stderr; never in pipes or with
+    /// --quiet. Ctrl-C leaves no partial output file (exit status 130).
     Render(RenderArgs),
     /// Derivatives of the image with respect to scene parameters
     /// (forward-mode automatic differentiation through the renderer).
@@ -418,6 +422,9 @@ fn parse_rr_depth(s: &str) -> Result<RrDepth, String> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // Ctrl-C leaves no partial output file (io::interrupt).
+    #[cfg(unix)]
+    raylab::io::interrupt::install();
     let result = match cli.command {
         Command::Render(args) => cmd_render(args),
         Command::Grad(args) => cmd_grad(args),
@@ -471,6 +478,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         reference: args.reference,
         spp_map: args.spp_map,
         threads: args.common.threads,
+        progress: !args.quiet,
     };
     let report = report::RenderReport::run(&opts)?;
     if args.quiet {
@@ -488,6 +496,7 @@ fn cmd_grad(args: GradArgs) -> Result<()> {
         params: args.params,
         check: args.check,
         threads: args.common.threads,
+        progress: true,
     };
     print_stdout(&report::grad::GradReport::run(&opts)?.to_string())
 }

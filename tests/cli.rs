@@ -554,3 +554,42 @@ fn grad_errors_name_the_parameter_and_write_nothing() {
     let o = run(&["--param", "light[0].intensity", "--check", "fd:-1"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
+
+/// Ctrl-C on a render in progress: the process ends with 128 + SIGINT
+/// and leaves neither the output nor a temporary file (io::interrupt).
+#[cfg(unix)]
+#[test]
+fn interrupted_render_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let slow = GOOD
+        .replace("width = 16\nheight = 12", "width = 64\nheight = 64")
+        .replace(
+            "[materials.m]",
+            "[render]\nsampler = \"random:4096\"\n[materials.m]",
+        );
+    let scene = write(dir.path(), "slow.toml", &slow);
+    let out = dir.path().join("slow.png");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_raylab"))
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    // SAFETY: signalling our own child.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGINT);
+    }
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "{status:?}");
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, vec![std::ffi::OsString::from("slow.toml")]);
+}

@@ -166,6 +166,7 @@ fn pass<const K: usize>(
     let spp = sampler.spp();
     let n = params.len();
     // Per row: for each pixel, (mean, variance, grey variance) per param.
+    crate::integrator::progress::announce(h as u64);
     let rows: Vec<Vec<[f32; 7]>> = in_pool(threads, || {
         (0..h)
             .into_par_iter()
@@ -221,6 +222,7 @@ fn pass<const K: usize>(
                         ]);
                     }
                 }
+                crate::integrator::progress::row_done();
                 row
             })
             .collect()

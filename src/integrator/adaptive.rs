@@ -69,6 +69,7 @@ where
     // pixel takes over the points its left neighbour traced on their
     // common edge.
     let mut film = Film::new(w, h);
+    super::progress::announce(u64::from(h));
     let per_row: Vec<Vec<S>> = film
         .pixels
         .par_chunks_mut(w as usize)
@@ -114,6 +115,7 @@ where
                 };
                 stats_row.push(stats);
             }
+            super::progress::row_done();
             stats_row
         })
         .collect();

@@ -14,6 +14,7 @@
 pub mod adaptive;
 pub mod floodfill;
 pub mod path;
+pub mod progress;
 pub mod whitted;
 
 pub use floodfill::{FloodFillIntegrator, FloodFillSettings};
@@ -253,6 +254,7 @@ where
     let filter = scene.settings.filter;
     let keep_samples = filter != Filter::Box;
     let mut film = Film::new(cam.width, cam.height);
+    progress::announce(u64::from(cam.height));
     let rows: Vec<RowOutput<S>> = film
         .pixels
         .par_chunks_mut(cam.width as usize)
@@ -276,6 +278,7 @@ where
                 }
                 out.total += stats;
             }
+            progress::row_done();
             out
         })
         .collect();

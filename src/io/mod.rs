@@ -3,6 +3,8 @@
 //! and what was expected; they never panic on bad input.
 
 pub mod image;
+#[cfg(unix)]
+pub mod interrupt;
 pub mod mesh;
 pub mod procedural;
 pub mod scene_file;
@@ -113,6 +115,8 @@ pub fn write_atomically(
     tmp_name.push(file_name);
     tmp_name.push(format!(".{}.tmp", std::process::id()));
     let tmp = path.with_file_name(tmp_name);
+    #[cfg(unix)]
+    let _pending = interrupt::pending(&tmp);
     let result = write(&tmp).and_then(|()| {
         std::fs::rename(&tmp, path)
             .map_err(|e| anyhow::anyhow!("{}: cannot rename into place: {e}", path.display()))

@@ -51,6 +51,8 @@ pub struct GradOptions {
     pub check: Option<FdCheck>,
     /// Render threads; `None` means all cores.
     pub threads: Option<usize>,
+    /// Show a progress bar on a terminal ([`super::progress`]).
+    pub progress: bool,
 }
 
 /// One parameter's results.
@@ -103,6 +105,7 @@ impl GradReport {
         write_film_exr(&opts.out_dir.join("image.exr"), &film)?;
 
         let start = Instant::now();
+        let watch = super::progress::Watch::start("derivatives", opts.progress);
         let grads = diff::render_gradients(
             &scene,
             &file,
@@ -112,6 +115,7 @@ impl GradReport {
             opts.threads,
         )
         .map_err(|e| anyhow!("{e}"))?;
+        drop(watch);
         let gradient_s = start.elapsed().as_secs_f64();
 
         let mut rows = Vec::new();

@@ -16,6 +16,7 @@
 pub mod diff;
 pub mod experiment;
 pub mod grad;
+pub mod progress;
 pub mod render;
 pub mod spectrum;
 pub mod stats;

@@ -37,6 +37,8 @@ pub struct RenderOptions {
     pub spp_map: Option<PathBuf>,
     /// Render threads; `None` means all cores.
     pub threads: Option<usize>,
+    /// Show a progress bar on a terminal ([`super::progress`]).
+    pub progress: bool,
 }
 
 /// The flood-fill cache of a render, as the report shows it.
@@ -135,9 +137,11 @@ impl RenderReport {
             .prepare(&scene)
             .map_err(|e| anyhow::anyhow!("{}: {e}", opts.scene.display()))?;
         let t1 = Instant::now();
+        let watch = super::progress::Watch::start("render", opts.progress);
         let (film, RayCounts(counts)) = prepared
             .frame::<RayCounts>(&scene, opts.threads)
             .map_err(|e| anyhow::anyhow!("{}: {e}", opts.scene.display()))?;
+        drop(watch);
         let render_s = t1.elapsed().as_secs_f64();
         let image = film.image();
         let error = match &reference {

@@ -1,0 +1,85 @@
+//! Ctrl-C (SIGINT) or SIGTERM while a file is being written leaves no
+//! partial file. Outputs are written to a temporary file and renamed into
+//! place ([`super::write_atomically`]), so an interrupted write would
+//! leave only that temporary file behind: [`install`] sets a signal
+//! handler that unlinks every temporary file being written ([`pending`]
+//! registers one) and exits with 128 + the signal's number, as a shell
+//! reports a process killed by it. Before any file is written (a render
+//! still tracing) the process simply ends: nothing was written.
+//!
+//! The handler does only what a signal handler may (POSIX's
+//! async-signal-safe `unlink` and `_exit`, atomic loads): the paths are
+//! C strings parked in a fixed table of atomic pointers. A registered
+//! path's few bytes are not freed when its write ends (the handler might be
+//! reading it at that instant); a process leaks one path per file written.
+
+use std::ffi::CString;
+use std::path::Path;
+use std::ptr::null_mut;
+use std::sync::atomic::{AtomicPtr, Ordering::SeqCst};
+
+const SLOTS: usize = 32;
+
+static PENDING: [AtomicPtr<libc::c_char>; SLOTS] = [const { AtomicPtr::new(null_mut()) }; SLOTS];
+
+extern "C" fn on_signal(sig: libc::c_int) {
+    for slot in &PENDING {
+        let p = slot.load(SeqCst);
+        if !p.is_null() {
+            // SAFETY: `p` came from CString::into_raw and is never freed.
+            unsafe {
+                libc::unlink(p);
+            }
+        }
+    }
+    // SAFETY: _exit is async-signal-safe and ends the process.
+    unsafe { libc::_exit(128 + sig) }
+}
+
+/// Install the handler for SIGINT and SIGTERM (once per process; the CLI
+/// does it at start).
+pub fn install() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+        // SAFETY: installing a handler that only calls async-signal-safe
+        // functions.
+        unsafe {
+            libc::signal(libc::SIGINT, handler);
+            libc::signal(libc::SIGTERM, handler);
+        }
+    });
+}
+
+/// A temporary file being written: unlinked if a signal ends the process
+/// before the guard is dropped.
+pub struct Pending(Option<usize>);
+
+/// Register `path` as being written. With every slot taken (more than 32
+/// files written at once) the file is simply not registered.
+pub fn pending(path: &Path) -> Pending {
+    use std::os::unix::ffi::OsStrExt;
+    let Ok(c) = CString::new(path.as_os_str().as_bytes()) else {
+        return Pending(None);
+    };
+    let raw = c.into_raw();
+    for (i, slot) in PENDING.iter().enumerate() {
+        if slot
+            .compare_exchange(null_mut(), raw, SeqCst, SeqCst)
+            .is_ok()
+        {
+            return Pending(Some(i));
+        }
+    }
+    // SAFETY: `raw` was never shared: take it back.
+    drop(unsafe { CString::from_raw(raw) });
+    Pending(None)
+}
+
+impl Drop for Pending {
+    fn drop(&mut self) {
+        if let Some(i) = self.0 {
+            PENDING[i].store(null_mut(), SeqCst);
+        }
+    }
+}
