@@ -449,8 +449,9 @@ fn main() -> ExitCode {
             };
             report::MergeReport::run(&opts).and_then(|r| print_stdout(&r.to_string()))
         }
-        Command::Plot { dir, out } => report::PlotReport::run(&dir, out.as_deref())
-            .and_then(|r| print_stdout(&r.to_string())),
+        Command::Plot { dir, out } => {
+            report::PlotReport::run(&dir, out.as_deref()).and_then(|r| print_stdout(&r.to_string()))
+        }
         Command::Stats {
             scene,
             accel,

@@ -19,8 +19,8 @@
 
 use super::data::{RowWriter, Table, DATA_FILE};
 use super::meta::{Meta, ShardRecord, META_FILE};
-use super::shard::{deal, host_name, manifest_hash, Shard};
 use super::redraw::recorded_manifest;
+use super::shard::{deal, host_name, manifest_hash, Shard};
 use super::{draw_figures, RatioSummary};
 use anyhow::{bail, Context};
 use std::collections::{BTreeMap, HashMap};

@@ -84,7 +84,11 @@ pub fn redraw(dir: &Path, out_dir: Option<&Path>) -> anyhow::Result<Redrawn> {
             .with_context(|| format!("{}: cannot create the output folder", out.display()))?;
         copy_study_files(dir, out, Path::new(""))?;
         std::fs::copy(dir.join(DATA_FILE), out.join(DATA_FILE)).with_context(|| {
-            format!("cannot copy {} to {}", dir.join(DATA_FILE).display(), out.display())
+            format!(
+                "cannot copy {} to {}",
+                dir.join(DATA_FILE).display(),
+                out.display()
+            )
         })?;
     }
     meta.figures.clear();
@@ -92,7 +96,11 @@ pub fn redraw(dir: &Path, out_dir: Option<&Path>) -> anyhow::Result<Redrawn> {
     let failures = draw_figures(&manifest, &plan, &table, out, &mut meta);
     meta.write(out)?;
     if !failures.is_empty() {
-        bail!("{}: figures failed:\n  {}", out.display(), failures.join("\n  "));
+        bail!(
+            "{}: figures failed:\n  {}",
+            out.display(),
+            failures.join("\n  ")
+        );
     }
     Ok(Redrawn {
         name: meta.name.clone(),

@@ -132,7 +132,13 @@ impl fmt::Display for PlotReport {
     /// The experiment, its rows, then the files written and the ratio means.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let r = &self.0;
-        writeln!(f, "plot {}: {} rows, {} figures", r.name, r.rows, r.figures.len())?;
+        writeln!(
+            f,
+            "plot {}: {} rows, {} figures",
+            r.name,
+            r.rows,
+            r.figures.len()
+        )?;
         write_outputs(f, &r.out_dir, &r.figures, &r.summary)
     }
 }
