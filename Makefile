@@ -50,14 +50,16 @@ demo: build
 ## test: every test, including the real-mesh readers, the Embree
 ## cross-checks and the CLI; the API docs with no broken links; the Slurm
 ## and GNU-parallel scripts on a throwaway local cluster (scripts/test-slurm);
-## then the book is built (figures from the quick experiments, run with the
-## test build) and its links and images checked.
+## then the book is built with the release build (figures from the quick
+## experiments and the committed full runs, numbers substituted from their
+## data) and its pages checked.
 test: deps
 	$(CARGO) test --all-targets
 	$(CARGO) test --doc
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps
 	RAYLAB=target/debug/raylab scripts/test-slurm
-	RAYLAB=target/debug/raylab scripts/book
+	$(CARGO) build --release
+	RAYLAB=$(RAYLAB) scripts/book
 
 ## book: the book (book/book/index.html): the quick experiments make its
 ## figures, mdBook + mdbook-katex (installed into .deps/tools when missing)

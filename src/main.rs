@@ -84,6 +84,17 @@ enum Command {
     /// lists each shard's machine, threads, start, end and wall time.
     /// scripts/slurm/ and scripts/parallel/ run shards and merge them.
     Merge(MergeArgs),
+    /// Draw an experiment's figures again from its data.csv and meta.json
+    /// (the manifest it recorded), with this raylab's plotting code and
+    /// without re-running anything: after copying a run from another
+    /// machine, or for the book's committed full runs.
+    Plot {
+        /// The experiment's folder (data.csv and meta.json).
+        dir: PathBuf,
+        /// Write the figures (and a copy of the data) here instead.
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+    },
     /// Count what tracing a scene costs with each accelerator: a pbrt-style
     /// table (rays by kind, nodes visited, volume and primitive tests, per-ray
     /// means, p50/p90/p99/max per camera ray, BVH shape, build and render
@@ -438,6 +449,8 @@ fn main() -> ExitCode {
             };
             report::MergeReport::run(&opts).and_then(|r| print_stdout(&r.to_string()))
         }
+        Command::Plot { dir, out } => report::PlotReport::run(&dir, out.as_deref())
+            .and_then(|r| print_stdout(&r.to_string())),
         Command::Stats {
             scene,
             accel,

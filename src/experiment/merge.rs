@@ -20,7 +20,8 @@
 use super::data::{RowWriter, Table, DATA_FILE};
 use super::meta::{Meta, ShardRecord, META_FILE};
 use super::shard::{deal, host_name, manifest_hash, Shard};
-use super::{draw_figures, parse_manifest, RatioSummary};
+use super::redraw::recorded_manifest;
+use super::{draw_figures, RatioSummary};
 use anyhow::{bail, Context};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -75,18 +76,7 @@ pub fn merge_shards(opts: &MergeOptions) -> anyhow::Result<Merged> {
     let first = &shards[0];
 
     // The plan, rebuilt from the manifest text the shards ran.
-    let manifest_path = first
-        .meta
-        .manifest
-        .get("path")
-        .and_then(|p| p.as_str())
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(format!("{}.toml", first.meta.name)));
-    let mut manifest = parse_manifest(&first.meta.manifest_text, &manifest_path)
-        .with_context(|| format!("{}: its manifest text", first.dir.join(META_FILE).display()))?;
-    if first.meta.quick {
-        manifest = manifest.with_quick()?;
-    }
+    let manifest = recorded_manifest(&first.meta, &first.dir)?;
     let plan = manifest.plan()?;
     let key_len = 1 + plan.param_columns.len();
     let dealt = deal(&manifest, &plan, first.shard.count);
@@ -382,7 +372,7 @@ fn merged_meta(
 /// references) from a shard folder into the merged one; the shard's own
 /// `data.csv` and `meta.json` stay behind. A file already there is kept
 /// (shards that computed the same cached reference wrote the same one).
-fn copy_study_files(from: &Path, to: &Path, rel: &Path) -> anyhow::Result<()> {
+pub(super) fn copy_study_files(from: &Path, to: &Path, rel: &Path) -> anyhow::Result<()> {
     let dir = from.join(rel);
     let entries =
         std::fs::read_dir(&dir).with_context(|| format!("{}: cannot list", dir.display()))?;

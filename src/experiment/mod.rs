@@ -153,6 +153,7 @@ pub mod manifest;
 pub mod merge;
 pub mod meta;
 pub mod params;
+pub mod redraw;
 pub mod row;
 pub mod shard;
 pub mod study;
@@ -161,6 +162,7 @@ pub mod sweep;
 pub use manifest::{load_manifest, parse_manifest, Manifest, Plan};
 pub use merge::{merge_shards, MergeOptions};
 pub use meta::RatioSummary;
+pub use redraw::{redraw, Redrawn};
 pub use shard::Shard;
 
 use anyhow::{bail, Context};

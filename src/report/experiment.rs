@@ -1,11 +1,11 @@
-//! The `raylab experiment` and `raylab merge` reports: run a manifest's
-//! sweeps (or merge its shards) and say what was run and written (runs,
+//! The `raylab experiment`, `raylab merge` and `raylab plot` reports: run
+//! a manifest's sweeps (or merge its shards, or redraw its figures) and say what was run and written (runs,
 //! threads, time, data files, figures, and the means of the ratio
 //! figures). Part of the top-layer [`crate::report`]; the experiment itself
 //! is [`crate::experiment`].
 
 use crate::experiment::merge::{merge_shards, MergeOptions, Merged};
-use crate::experiment::{run_experiment, Options, RatioSummary, Report};
+use crate::experiment::{redraw, run_experiment, Options, RatioSummary, Redrawn, Report};
 use anyhow::Result;
 use std::fmt;
 use std::path::Path;
@@ -114,5 +114,25 @@ impl fmt::Display for MergeReport {
             writeln!(f, "missing    shard {shard}: {what}")?;
         }
         write_outputs(f, &m.out_dir, &m.figures, &m.summary)
+    }
+}
+
+/// What `raylab plot` did.
+#[derive(Clone, Debug)]
+pub struct PlotReport(pub Redrawn);
+
+impl PlotReport {
+    /// Redraw the figures of the experiment in `dir` into `out_dir`.
+    pub fn run(dir: &Path, out_dir: Option<&Path>) -> Result<Self> {
+        redraw(dir, out_dir).map(Self)
+    }
+}
+
+impl fmt::Display for PlotReport {
+    /// The experiment, its rows, then the files written and the ratio means.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = &self.0;
+        writeln!(f, "plot {}: {} rows, {} figures", r.name, r.rows, r.figures.len())?;
+        write_outputs(f, &r.out_dir, &r.figures, &r.summary)
     }
 }

@@ -24,7 +24,7 @@ pub mod stats;
 pub mod validate;
 
 pub use diff::DiffReport;
-pub use experiment::{ExperimentReport, MergeReport};
+pub use experiment::{ExperimentReport, MergeReport, PlotReport};
 pub use render::{RenderOptions, RenderReport};
 pub use spectrum::{SpectrumOptions, SpectrumReport};
 pub use stats::StatsOptions;

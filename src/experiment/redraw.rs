@@ -1,0 +1,104 @@
+//! `raylab plot DIR`: an experiment's figures drawn again from its
+//! `data.csv` and `meta.json`, without re-running anything.
+//!
+//! The manifest comes from the text `meta.json` recorded (`manifest_text`),
+//! so the figures are the manifest's as it was run, drawn by the plotting
+//! code of this raylab. This is how the book draws the figures of the
+//! committed full runs in `analysis/results/`, and how a researcher redraws
+//! after changing the plotting code or copying a run from another machine.
+//! With an output folder other than `DIR`, the table, the record and the
+//! files the study wrote beside them are copied there first and `DIR` is
+//! left as it was.
+
+use super::data::{Table, DATA_FILE};
+use super::merge::copy_study_files;
+use super::meta::{Meta, META_FILE};
+use super::{draw_figures, parse_manifest, Manifest, RatioSummary};
+use anyhow::{bail, Context};
+use std::path::{Path, PathBuf};
+
+/// What a redraw did.
+#[derive(Clone, Debug)]
+pub struct Redrawn {
+    /// The experiment's name.
+    pub name: String,
+    /// Where the figures were written.
+    pub out_dir: PathBuf,
+    /// Rows of the table.
+    pub rows: usize,
+    /// The figures written (file stems).
+    pub figures: Vec<String>,
+    /// Means of the ratio figures.
+    pub summary: Vec<RatioSummary>,
+}
+
+/// The manifest a run's `meta.json` recorded, with `--quick` applied when
+/// the run was quick. `dir` names the folder in errors.
+pub(super) fn recorded_manifest(meta: &Meta, dir: &Path) -> anyhow::Result<Manifest> {
+    if meta.manifest_text.is_empty() {
+        bail!(
+            "{}: records no manifest text (written by an older raylab); \
+             run the experiment again",
+            dir.join(META_FILE).display()
+        );
+    }
+    let path = meta
+        .manifest
+        .get("path")
+        .and_then(|p| p.as_str())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(format!("{}.toml", meta.name)));
+    let manifest = parse_manifest(&meta.manifest_text, &path)
+        .with_context(|| format!("{}: its manifest text", dir.join(META_FILE).display()))?;
+    if meta.quick {
+        Ok(manifest.with_quick()?)
+    } else {
+        Ok(manifest)
+    }
+}
+
+/// Draw the figures of the experiment in `dir` into `out_dir` (`dir` when
+/// `None`), updating the figure list and ratio means of its `meta.json`.
+pub fn redraw(dir: &Path, out_dir: Option<&Path>) -> anyhow::Result<Redrawn> {
+    let mut meta = Meta::read(dir)?;
+    let manifest = recorded_manifest(&meta, dir)?;
+    let plan = manifest.plan()?;
+    let (table, dropped) = Table::read(&dir.join(DATA_FILE))?;
+    if dropped {
+        bail!(
+            "{}: its last row is incomplete (an interrupted run?); finish it with --resume first",
+            dir.join(DATA_FILE).display()
+        );
+    }
+    if table.columns != plan.columns {
+        bail!(
+            "{}: its columns differ from the recorded manifest's plan\n  file:     {}\n  manifest: {}",
+            dir.join(DATA_FILE).display(),
+            table.columns.join(","),
+            plan.columns.join(",")
+        );
+    }
+    let out = out_dir.unwrap_or(dir);
+    if out != dir {
+        std::fs::create_dir_all(out)
+            .with_context(|| format!("{}: cannot create the output folder", out.display()))?;
+        copy_study_files(dir, out, Path::new(""))?;
+        std::fs::copy(dir.join(DATA_FILE), out.join(DATA_FILE)).with_context(|| {
+            format!("cannot copy {} to {}", dir.join(DATA_FILE).display(), out.display())
+        })?;
+    }
+    meta.figures.clear();
+    meta.summary.clear();
+    let failures = draw_figures(&manifest, &plan, &table, out, &mut meta);
+    meta.write(out)?;
+    if !failures.is_empty() {
+        bail!("{}: figures failed:\n  {}", out.display(), failures.join("\n  "));
+    }
+    Ok(Redrawn {
+        name: meta.name.clone(),
+        out_dir: out.to_path_buf(),
+        rows: table.rows.len(),
+        figures: meta.figures,
+        summary: meta.summary,
+    })
+}

@@ -1,0 +1,109 @@
+//! `raylab plot`: an experiment's figures drawn again from its data.csv and
+//! the manifest its meta.json recorded are the figures the run drew, byte
+//! for byte; the source folder is left alone; a table that does not fit the
+//! recorded manifest, or whose last row was cut short, is refused.
+
+use raylab::experiment::meta::Meta;
+use raylab::experiment::{redraw, run_experiment, Options};
+use std::path::Path;
+use std::process::Command;
+
+mod common;
+use common::experiment::{setup, MANIFEST};
+
+fn figures(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".png") || n.ends_with(".svg"))
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn redrawn_figures_equal_the_run_s() {
+    let (dir, manifest) = setup(MANIFEST);
+    let run = dir.path().join("run");
+    let opts = Options {
+        out_dir: Some(run.clone()),
+        quick: true,
+        ..Options::default()
+    };
+    run_experiment(&manifest, &opts).unwrap();
+    let drawn = figures(&run);
+    assert!(drawn.len() >= 4, "{drawn:?}");
+
+    let again = dir.path().join("again");
+    let r = redraw(&run, Some(&again)).unwrap();
+    assert_eq!(figures(&again), drawn);
+    for f in &drawn {
+        let a = std::fs::read(run.join(f)).unwrap();
+        let b = std::fs::read(again.join(f)).unwrap();
+        assert!(a == b, "{f} differs when redrawn");
+    }
+    assert_eq!(r.rows, 5);
+    let (m1, m2) = (Meta::read(&run).unwrap(), Meta::read(&again).unwrap());
+    assert_eq!(m1.figures, m2.figures);
+    assert_eq!(m1.summary.len(), m2.summary.len());
+    for (a, b) in m1.summary.iter().zip(&m2.summary) {
+        for (x, y) in a.series.iter().zip(&b.series) {
+            assert_eq!(x.mean, y.mean, "{}", a.figure);
+        }
+    }
+    assert_eq!(
+        std::fs::read(run.join("data.csv")).unwrap(),
+        std::fs::read(again.join("data.csv")).unwrap()
+    );
+
+    // In place: the figures are drawn again over the old ones.
+    std::fs::remove_file(run.join(&drawn[0])).unwrap();
+    redraw(&run, None).unwrap();
+    assert_eq!(figures(&run), drawn);
+
+    // The CLI prints what it drew; a folder that is no experiment is an
+    // error naming the file (exit 1).
+    let bin = env!("CARGO_BIN_EXE_raylab");
+    let o = Command::new(bin).arg("plot").arg(&run).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("plot tiny: 5 rows"));
+    let o = Command::new(bin)
+        .arg("plot")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("meta.json: cannot read"));
+}
+
+#[test]
+fn redraw_refuses_a_table_that_does_not_fit() {
+    let (dir, manifest) = setup(MANIFEST);
+    let run = dir.path().join("run");
+    let opts = Options {
+        out_dir: Some(run.clone()),
+        quick: true,
+        ..Options::default()
+    };
+    run_experiment(&manifest, &opts).unwrap();
+    let data = std::fs::read_to_string(run.join("data.csv")).unwrap();
+
+    // A row cut short by an interrupted write.
+    std::fs::write(run.join("data.csv"), &data[..data.len() - 3]).unwrap();
+    let e = redraw(&run, None).unwrap_err().to_string();
+    assert!(e.contains("last row is incomplete"), "{e}");
+
+    // Columns that are not the recorded manifest's.
+    let renamed = data.replacen("render_median_s", "render_mean_s", 1);
+    std::fs::write(run.join("data.csv"), renamed).unwrap();
+    let e = format!("{:#}", redraw(&run, None).unwrap_err());
+    assert!(e.contains("columns differ"), "{e}");
+
+    // A record without the manifest's text.
+    std::fs::write(run.join("data.csv"), &data).unwrap();
+    let mut meta = Meta::read(&run).unwrap();
+    meta.manifest_text.clear();
+    meta.write(&run).unwrap();
+    let e = redraw(&run, None).unwrap_err().to_string();
+    assert!(e.contains("records no manifest text"), "{e}");
+}
