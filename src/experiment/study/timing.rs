@@ -25,6 +25,7 @@ impl Timings {
     /// let the CPU clock settle), then `repeats` times timed. Whatever `f`
     /// returns is dropped after its clock stops, so freeing a result is
     /// not part of the time.
+    // ANCHOR: measure
     pub fn measure<T>(warmup: u32, repeats: u32, mut f: impl FnMut() -> T) -> Timings {
         for _ in 0..warmup {
             black_box(f());
@@ -43,6 +44,7 @@ impl Timings {
         }
         t
     }
+    // ANCHOR_END: measure
 
     /// The median wall-clock time; see [`median`].
     pub fn median(&self) -> f64 {
@@ -89,6 +91,7 @@ pub fn median(values: &[f64]) -> f64 {
 /// CPU time used so far by every thread of this process, in seconds
 /// (`CLOCK_PROCESS_CPUTIME_ID`, nanosecond resolution on Linux); NaN where
 /// the system cannot tell.
+// ANCHOR: cpu_time
 pub fn process_cpu_seconds() -> f64 {
     #[cfg(unix)]
     {
@@ -104,6 +107,7 @@ pub fn process_cpu_seconds() -> f64 {
     }
     f64::NAN
 }
+// ANCHOR_END: cpu_time
 
 #[cfg(test)]
 mod tests {
