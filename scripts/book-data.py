@@ -21,7 +21,10 @@ committed full run), never a copy that drifts. Two directives:
     - ``meta(FIELD)``: a number of the run's ``meta.json`` (``wall_time_s``,
       ``runs_total``, ``threads`` …);
     - ``summary(FIGURE, "SERIES")``: the mean a ratio figure recorded for one
-      series in ``meta.json`` (its ``summary``).
+      series in ``meta.json`` (its ``summary``);
+    - ``slope(X, Y | key=value, …)``: the least-squares slope of log10 Y
+      against log10 X over the matching rows of ``data.csv`` (rows with the
+      same X averaged first), the slope a ``fit_slope`` figure's legend shows.
 
     FMT is a Python format spec (``.2f``, ``.3g``, ``,d``, ``.0%``), or
     ``tex.N`` for ``m\\cdot10^{e}`` with N significant digits (inside maths).
@@ -210,8 +213,10 @@ class Parser:
                 return self.meta_field()
             if tok == "summary":
                 return self.summary()
+            if tok == "slope":
+                return self.slope()
             raise BookError(f"unknown function {tok!r} in {self.text!r} (aggregates: "
-                            f"{', '.join(sorted(AGGREGATES))}; meta; summary)")
+                            f"{', '.join(sorted(AGGREGATES))}; meta; summary; slope)")
         raise BookError(f"unexpected {tok!r} in {self.text!r}")
 
     def aggregate(self, agg):
@@ -266,6 +271,56 @@ class Parser:
             "max": max,
             "sum": math.fsum,
         }[agg](values)
+
+    def slope(self):
+        """The log–log least-squares slope, as src/experiment/figures.rs's
+        fitted_slope computes it for a figure's legend."""
+        spec = self.raw_until("|)")
+        if spec.count(",") != 1:
+            raise BookError(f"slope({spec}) in {self.text!r}: expected slope(X, Y | key=value, …)")
+        x_col, y_col = (c.strip() for c in spec.split(","))
+        selector = []
+        if self.peek()[1] == "|":
+            self.pos += self.text[self.pos :].index("|") + 1
+            while True:
+                item = self.raw_until(",)")
+                if "=" not in item:
+                    raise BookError(f"selector {item!r} in {self.text!r}: expected key=value")
+                key, value = (s.strip().strip('"') for s in item.split("=", 1))
+                selector.append((key, value))
+                if self.peek()[1] != ",":
+                    break
+                self.take(",")
+        self.take(")")
+        rows = self.run.table("data.csv")
+        known = rows[0].keys() if rows else []
+        for name in [x_col, y_col] + [k for k, _ in selector]:
+            if name not in known:
+                raise BookError(f"{self.run.source}: no column {name!r} in data.csv "
+                                f"(columns: {', '.join(known)})")
+        for col in (x_col, y_col):
+            if TIMING.search(col) and not self.run.meta.get("optimised"):
+                raise BookError(f"{self.run.source}: {col!r} is a timing and the run's build was "
+                                f"not optimised; timings in the book come from release builds")
+        self.columns += [x_col, y_col]
+        by_x = {}
+        for r in rows:
+            if all(same(r[k], v) for k, v in selector):
+                try:
+                    x, y = float(r[x_col]), float(r[y_col])
+                except ValueError:
+                    continue
+                if x > 0 and y > 0 and math.isfinite(x) and math.isfinite(y):
+                    by_x.setdefault(x, []).append(y)
+        uv = [(math.log10(x), math.log10(statistics.fmean(ys))) for x, ys in by_x.items()]
+        where = ", ".join(f"{k}={v}" for k, v in selector) or "all rows"
+        if len(uv) < 2:
+            raise BookError(f"{self.run.source}: slope({x_col}, {y_col} | {where}) has fewer than "
+                            f"two distinct positive {x_col} values")
+        mu = statistics.fmean(u for u, _ in uv)
+        mv = statistics.fmean(v for _, v in uv)
+        sxy = math.fsum((u - mu) * (v - mv) for u, v in uv)
+        return sxy / math.fsum((u - mu) ** 2 for u, _ in uv)
 
     def meta_field(self):
         field = self.raw_until(")")
