@@ -5,7 +5,7 @@
 //!
 //! Seeds are every real file of each format (the CGAL meshes, assimp's test
 //! models including its deliberately broken ones, `tests/data/broken/`,
-//! the shipped scenes and manifests, the committed PNGs) and small PNG and
+//! the shipped scenes and manifests, the PNGs in `tests/data/png/`) and small PNG and
 //! EXR images made here in every pixel type and compression (`seeds`).
 //! Each input is a seed, first as it is and then with one to four
 //! mutations (`mutate`): bit flips, random bytes, truncation, duplicated

@@ -106,7 +106,7 @@ pub fn real_files(target: &str) -> Vec<PathBuf> {
         "manifest" => files(&r.join("analysis"), &["toml"]),
         "png" => [
             files(&assimp.join("3DS"), &["png"]),
-            files(&r.join("analysis/figures"), &["png"]),
+            files(&r.join("tests/data/png"), &["png"]),
         ]
         .concat(),
         "exr" => Vec::new(),
