@@ -397,7 +397,7 @@ def measure(args, raylab, where):
     if done.returncode != 0:
         raise BookError(f"{where}: `{args}` failed (exit {done.returncode}):\n{done.stderr}")
     output = (done.stdout + done.stderr).rstrip()
-    timed = re.search(r"\btime\b|Mrays/s", output)
+    timed = re.search(r"\btime\b|Mrays/s|\d s\b", output)
     note = ("Counts are exact: yours will be these. Times depend on the machine."
             if timed else "The output is deterministic: yours will be this.")
     return (

@@ -103,7 +103,8 @@ pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
 
 /// Write a file atomically: the bytes go to a temporary name beside the
 /// target, which is renamed into place only when complete, so a failed or
-/// interrupted write never leaves a half-written output.
+/// interrupted write never leaves a half-written output. Missing parent
+/// folders are created.
 pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&Path) -> anyhow::Result<()>,
@@ -115,6 +116,11 @@ pub fn write_atomically(
     tmp_name.push(file_name);
     tmp_name.push(format!(".{}.tmp", std::process::id()));
     let tmp = path.with_file_name(tmp_name);
+    // `-o out/run-3/image.png` makes `out/run-3/` as a shell user expects.
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .map_err(|e| anyhow::anyhow!("{}: cannot create the folder: {e}", parent.display()))?;
+    }
     #[cfg(unix)]
     let _pending = interrupt::pending(&tmp);
     let result = write(&tmp).and_then(|()| {
