@@ -22,6 +22,10 @@ committed full run), never a copy that drifts. Two directives:
       ``runs_total``, ``threads`` …);
     - ``summary(FIGURE, "SERIES")``: the mean a ratio figure recorded for one
       series in ``meta.json`` (its ``summary``);
+    - ``out("raylab ARGS…", "REGEX")`` with SOURCE ``cmd``: the number
+      that REGEX's first group finds in what the command printed (the
+      command runs once per build, from the repository root), for counts
+      a page quotes from a command it shows;
     - ``slope(X, Y | key=value, …)``: the least-squares slope of log10 Y
       against log10 X over the matching rows of ``data.csv`` (rows with the
       same X averaged first), the slope a ``fit_slope`` figure's legend shows.
@@ -125,6 +129,39 @@ def same(a, b):
         return False
 
 
+OUTPUTS = {}  # command line -> what it printed: each command runs once per build
+
+
+def run_command(args, raylab):
+    """Run a raylab command line from the repository root (once per build)."""
+    if args in OUTPUTS:
+        return OUTPUTS[args]
+    words = shlex.split(args)
+    if not words or words[0] != "raylab":
+        raise BookError(f"runs raylab commands only, got {args!r}")
+    (ROOT / "out").mkdir(exist_ok=True)  # commands in the book write under out/
+    try:
+        done = subprocess.run([raylab] + words[1:], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    except subprocess.TimeoutExpired:
+        raise BookError(f"`{args}` took over 120 s")
+    if done.returncode != 0:
+        raise BookError(f"`{args}` failed (exit {done.returncode}):\n{done.stderr}")
+    OUTPUTS[args] = (done.stdout + done.stderr).rstrip()
+    return OUTPUTS[args]
+
+
+class Commands:
+    """The source `cmd`: numbers printed by raylab commands run at build time."""
+
+    source = "cmd"
+
+    def __init__(self, raylab):
+        self.raylab = raylab
+
+    def provenance(self):
+        return "printed by the raylab this book was built with, running the command quoted on the page"
+
+
 class Parser:
     """Recursive descent over the tokens of one EXPR."""
 
@@ -215,6 +252,8 @@ class Parser:
                 return self.summary()
             if tok == "slope":
                 return self.slope()
+            if tok == "out":
+                return self.output()
             raise BookError(f"unknown function {tok!r} in {self.text!r} (aggregates: "
                             f"{', '.join(sorted(AGGREGATES))}; meta; summary; slope)")
         raise BookError(f"unexpected {tok!r} in {self.text!r}")
@@ -322,6 +361,30 @@ class Parser:
         sxy = math.fsum((u - mu) * (v - mv) for u, v in uv)
         return sxy / math.fsum((u - mu) ** 2 for u, _ in uv)
 
+    def output(self):
+        """out("raylab ARGS…", "REGEX"): the number REGEX's first group (or
+        match) finds in what the command printed."""
+        if not isinstance(self.run, Commands):
+            raise BookError(f"out(…) needs the source cmd, not {self.run.source}")
+        args = self.raw_until(",").strip()
+        self.take(",")
+        pattern = self.raw_until(")").strip()
+        self.take(")")
+        if not (len(args) > 1 and args[0] == args[-1] == '"' and len(pattern) > 1 and pattern[0] == pattern[-1] == '"'):
+            raise BookError(f'expected out("raylab ARGS", "REGEX") in {self.text!r}')
+        args, pattern = args[1:-1], pattern[1:-1]
+        printed = run_command(args, self.run.raylab)
+        m = re.search(pattern, printed)
+        if not m:
+            raise BookError(f"`{args}` printed nothing matching {pattern!r}:\n{printed}")
+        found = (m.group(1) if m.groups() else m.group(0)).replace(",", "").replace(" ", "")
+        try:
+            value = float(found)
+        except ValueError:
+            raise BookError(f"{pattern!r} found {found!r} in the output of `{args}`: not a number")
+        self.columns.append(f"the output of `{args}`")
+        return value
+
     def meta_field(self):
         field = self.raw_until(")")
         self.take(")")
@@ -386,17 +449,7 @@ def spans(text):
 
 
 def measure(args, raylab, where):
-    words = shlex.split(args)
-    if not words or words[0] != "raylab":
-        raise BookError(f"{where}: {{{{#measure}}}} runs raylab commands only, got {args!r}")
-    (ROOT / "out").mkdir(exist_ok=True)  # commands in the book write under out/
-    try:
-        done = subprocess.run([raylab] + words[1:], cwd=ROOT, capture_output=True, text=True, timeout=120)
-    except subprocess.TimeoutExpired:
-        raise BookError(f"{where}: `{args}` took over 120 s")
-    if done.returncode != 0:
-        raise BookError(f"{where}: `{args}` failed (exit {done.returncode}):\n{done.stderr}")
-    output = (done.stdout + done.stderr).rstrip()
+    output = run_command(args, raylab)
     timed = re.search(r"\btime\b|Mrays/s|\d s\b", output)
     note = ("Counts are exact: yours will be these. Times depend on the machine."
             if timed else "The output is deterministic: yours will be this.")
@@ -463,16 +516,18 @@ def process(content, path, raylab, runs):
             if fm:
                 expr, fmt = rest[: fm.start()], fm.group(1)
             if source not in runs:
-                runs[source] = Run(source)
+                runs[source] = Commands(raylab) if source == "cmd" else Run(source)
             run = runs[source]
             parser = Parser(expr, run)
             text = format_value(parser.parse(), fmt)
         except BookError as e:
             raise BookError(f"{where}: {m.group(0)}: {e}") from None
-        used[source] = run
         if any(a <= m.start() < b for a, b in maths):
             return text
         title = html.escape(f"{', '.join(dict.fromkeys(parser.columns))} — {run.provenance()}", quote=True)
+        if isinstance(run, Commands):
+            return f'<span class="measured" title="{title}">{text}</span>'
+        used[source] = run
         return f'<a class="measured" href="{prefix}{run.rel}/data.csv" title="{title}">{text}</a>'
 
     content = DIRECTIVE.sub(replace, content)
