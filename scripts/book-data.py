@@ -258,11 +258,8 @@ class Parser:
                             f"{', '.join(sorted(AGGREGATES))}; meta; summary; slope)")
         raise BookError(f"unexpected {tok!r} in {self.text!r}")
 
-    def aggregate(self, agg):
-        spec = self.raw_until("|)")
-        file, column = "data.csv", spec
-        if ":" in spec:
-            file, column = (s.strip() for s in spec.split(":", 1))
+    def selector(self):
+        """``| key=value, …)``: the pairs, up to and including the ``)``."""
         selector = []
         if self.peek()[1] == "|":
             self.pos += self.text[self.pos :].index("|") + 1
@@ -272,11 +269,18 @@ class Parser:
                     raise BookError(f"selector {item!r} in {self.text!r}: expected key=value")
                 key, value = (s.strip().strip('"') for s in item.split("=", 1))
                 selector.append((key, value))
-                if self.peek()[1] == ",":
-                    self.take(",")
-                    continue
-                break
+                if self.peek()[1] != ",":
+                    break
+                self.take(",")
         self.take(")")
+        return selector
+
+    def aggregate(self, agg):
+        spec = self.raw_until("|)")
+        file, column = "data.csv", spec
+        if ":" in spec:
+            file, column = (s.strip() for s in spec.split(":", 1))
+        selector = self.selector()
         rows = self.run.table(file)
         known = rows[0].keys() if rows else []
         for name in [column] + [k for k, _ in selector]:
@@ -318,19 +322,7 @@ class Parser:
         if spec.count(",") != 1:
             raise BookError(f"slope({spec}) in {self.text!r}: expected slope(X, Y | key=value, …)")
         x_col, y_col = (c.strip() for c in spec.split(","))
-        selector = []
-        if self.peek()[1] == "|":
-            self.pos += self.text[self.pos :].index("|") + 1
-            while True:
-                item = self.raw_until(",)")
-                if "=" not in item:
-                    raise BookError(f"selector {item!r} in {self.text!r}: expected key=value")
-                key, value = (s.strip().strip('"') for s in item.split("=", 1))
-                selector.append((key, value))
-                if self.peek()[1] != ",":
-                    break
-                self.take(",")
-        self.take(")")
+        selector = self.selector()
         rows = self.run.table("data.csv")
         known = rows[0].keys() if rows else []
         for name in [x_col, y_col] + [k for k, _ in selector]:

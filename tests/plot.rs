@@ -5,7 +5,7 @@
 
 use raylab::experiment::meta::Meta;
 use raylab::experiment::{redraw, run_experiment, Options};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 mod common;
@@ -21,8 +21,8 @@ fn figures(dir: &Path) -> Vec<String> {
     names
 }
 
-#[test]
-fn redrawn_figures_equal_the_run_s() {
+/// The tiny manifest's quick run, in `run/` of a fresh folder.
+fn quick_run() -> (tempfile::TempDir, PathBuf) {
     let (dir, manifest) = setup(MANIFEST);
     let run = dir.path().join("run");
     let opts = Options {
@@ -31,6 +31,12 @@ fn redrawn_figures_equal_the_run_s() {
         ..Options::default()
     };
     run_experiment(&manifest, &opts).unwrap();
+    (dir, run)
+}
+
+#[test]
+fn redrawn_figures_equal_the_run_s() {
+    let (dir, run) = quick_run();
     let drawn = figures(&run);
     assert!(drawn.len() >= 4, "{drawn:?}");
 
@@ -78,14 +84,7 @@ fn redrawn_figures_equal_the_run_s() {
 
 #[test]
 fn redraw_refuses_a_table_that_does_not_fit() {
-    let (dir, manifest) = setup(MANIFEST);
-    let run = dir.path().join("run");
-    let opts = Options {
-        out_dir: Some(run.clone()),
-        quick: true,
-        ..Options::default()
-    };
-    run_experiment(&manifest, &opts).unwrap();
+    let (_dir, run) = quick_run();
     let data = std::fs::read_to_string(run.join("data.csv")).unwrap();
 
     // A row cut short by an interrupted write.
