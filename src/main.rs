@@ -94,6 +94,11 @@ enum Command {
         /// Write the figures (and a copy of the data) here instead.
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
+        /// Draw the figures of this manifest (as edited since the run)
+        /// instead of the one meta.json recorded; its runs must include
+        /// every row of the table.
+        #[arg(long, value_name = "FILE")]
+        manifest: Option<PathBuf>,
     },
     /// Count what tracing a scene costs with each accelerator: a pbrt-style
     /// table (rays by kind, nodes visited, volume and primitive tests, per-ray
@@ -449,8 +454,9 @@ fn main() -> ExitCode {
             };
             report::MergeReport::run(&opts).and_then(|r| print_stdout(&r.to_string()))
         }
-        Command::Plot { dir, out } => {
-            report::PlotReport::run(&dir, out.as_deref()).and_then(|r| print_stdout(&r.to_string()))
+        Command::Plot { dir, out, manifest } => {
+            report::PlotReport::run(&dir, out.as_deref(), manifest.as_deref())
+                .and_then(|r| print_stdout(&r.to_string()))
         }
         Command::Stats {
             scene,

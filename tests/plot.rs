@@ -41,7 +41,7 @@ fn redrawn_figures_equal_the_run_s() {
     assert!(drawn.len() >= 4, "{drawn:?}");
 
     let again = dir.path().join("again");
-    let r = redraw(&run, Some(&again)).unwrap();
+    let r = redraw(&run, Some(&again), None).unwrap();
     assert_eq!(figures(&again), drawn);
     for f in &drawn {
         let a = std::fs::read(run.join(f)).unwrap();
@@ -64,7 +64,7 @@ fn redrawn_figures_equal_the_run_s() {
 
     // In place: the figures are drawn again over the old ones.
     std::fs::remove_file(run.join(&drawn[0])).unwrap();
-    redraw(&run, None).unwrap();
+    redraw(&run, None, None).unwrap();
     assert_eq!(figures(&run), drawn);
 
     // The CLI prints what it drew; a folder that is no experiment is an
@@ -89,13 +89,13 @@ fn redraw_refuses_a_table_that_does_not_fit() {
 
     // A row cut short by an interrupted write.
     std::fs::write(run.join("data.csv"), &data[..data.len() - 3]).unwrap();
-    let e = redraw(&run, None).unwrap_err().to_string();
+    let e = redraw(&run, None, None).unwrap_err().to_string();
     assert!(e.contains("last row is incomplete"), "{e}");
 
     // Columns that are not the recorded manifest's.
     let renamed = data.replacen("render_median_s", "render_mean_s", 1);
     std::fs::write(run.join("data.csv"), renamed).unwrap();
-    let e = format!("{:#}", redraw(&run, None).unwrap_err());
+    let e = format!("{:#}", redraw(&run, None, None).unwrap_err());
     assert!(e.contains("columns differ"), "{e}");
 
     // A record without the manifest's text.
@@ -103,6 +103,47 @@ fn redraw_refuses_a_table_that_does_not_fit() {
     let mut meta = Meta::read(&run).unwrap();
     meta.manifest_text.clear();
     meta.write(&run).unwrap();
-    let e = redraw(&run, None).unwrap_err().to_string();
+    let e = redraw(&run, None, None).unwrap_err().to_string();
     assert!(e.contains("records no manifest text"), "{e}");
+}
+
+#[test]
+fn redraw_with_an_edited_manifest() {
+    let (dir, run) = quick_run();
+    let manifest = dir.path().join("tiny.toml");
+    let before = std::fs::read(run.join("time.png")).unwrap();
+
+    // A figure's title edited after the run: the new figure from the old data.
+    let edited = MANIFEST.replace("title = \"time\"", "title = \"render time, edited\"");
+    assert_ne!(edited, MANIFEST);
+    std::fs::write(&manifest, &edited).unwrap();
+    let out = dir.path().join("edited");
+    redraw(&run, Some(&out), Some(&manifest)).unwrap();
+    let after = std::fs::read(out.join("time.png")).unwrap();
+    assert!(before != after, "the edited title changed nothing");
+    // The source folder keeps its figures.
+    assert_eq!(std::fs::read(run.join("time.png")).unwrap(), before);
+
+    // A sweep changed so that the table's rows are no runs of it.
+    let moved = MANIFEST.replace(
+        "[quick.sweep.sizes]\nresolution = [\"8x6\"]",
+        "[quick.sweep.sizes]\nresolution = [\"16x12\"]",
+    );
+    assert_ne!(moved, MANIFEST);
+    std::fs::write(&manifest, moved).unwrap();
+    let e = redraw(&run, Some(&out), Some(&manifest))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("is not a run of the manifest"), "{e}");
+
+    // Another experiment's manifest.
+    std::fs::write(
+        &manifest,
+        MANIFEST.replace("name = \"tiny\"", "name = \"other\""),
+    )
+    .unwrap();
+    let e = redraw(&run, Some(&out), Some(&manifest))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("holds a run of `tiny`"), "{e}");
 }

@@ -9,11 +9,16 @@
 //! With an output folder other than `DIR`, the table, the record and the
 //! files the study wrote beside them are copied there first and `DIR` is
 //! left as it was.
+//!
+//! With `--manifest FILE`, the figures are those of the manifest as it is
+//! now (after its `[[figure]]` blocks were edited, say), drawn from the old
+//! data: the manifest must have the recorded experiment's name and the
+//! table's columns, and every row of the table must be one of its runs.
 
 use super::data::{Table, DATA_FILE};
 use super::merge::copy_study_files;
 use super::meta::{Meta, META_FILE};
-use super::{draw_figures, parse_manifest, Manifest, RatioSummary};
+use super::{draw_figures, load_manifest, parse_manifest, Manifest, RatioSummary};
 use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};
 
@@ -58,10 +63,31 @@ pub(super) fn recorded_manifest(meta: &Meta, dir: &Path) -> anyhow::Result<Manif
 }
 
 /// Draw the figures of the experiment in `dir` into `out_dir` (`dir` when
-/// `None`), updating the figure list and ratio means of its `meta.json`.
-pub fn redraw(dir: &Path, out_dir: Option<&Path>) -> anyhow::Result<Redrawn> {
+/// `None`), updating the figure list and ratio means of its `meta.json`;
+/// the figures of `manifest` when given, else of the recorded manifest.
+pub fn redraw(
+    dir: &Path,
+    out_dir: Option<&Path>,
+    manifest: Option<&Path>,
+) -> anyhow::Result<Redrawn> {
     let mut meta = Meta::read(dir)?;
-    let manifest = recorded_manifest(&meta, dir)?;
+    let manifest = match manifest {
+        None => recorded_manifest(&meta, dir)?,
+        Some(path) => {
+            let m = load_manifest(path)?;
+            let m = if meta.quick { m.with_quick()? } else { m };
+            if m.name != meta.name {
+                bail!(
+                    "{}: the manifest of experiment `{}`, but {} holds a run of `{}`",
+                    path.display(),
+                    m.name,
+                    dir.display(),
+                    meta.name
+                );
+            }
+            m
+        }
+    };
     let plan = manifest.plan()?;
     let (table, dropped) = Table::read(&dir.join(DATA_FILE))?;
     if dropped {
@@ -77,6 +103,19 @@ pub fn redraw(dir: &Path, out_dir: Option<&Path>) -> anyhow::Result<Redrawn> {
             table.columns.join(","),
             plan.columns.join(",")
         );
+    }
+    let runs: std::collections::HashSet<Vec<String>> =
+        plan.runs.iter().map(|r| plan.key(r)).collect();
+    let key_len = 1 + plan.param_columns.len();
+    for (i, row) in table.rows.iter().enumerate() {
+        if !runs.contains(&row[..key_len]) {
+            bail!(
+                "{}:{}: this row is not a run of the manifest ({}); was a sweep changed?",
+                dir.join(DATA_FILE).display(),
+                i + 2,
+                row[..key_len].join(",")
+            );
+        }
     }
     let out = out_dir.unwrap_or(dir);
     if out != dir {

@@ -122,9 +122,10 @@ impl fmt::Display for MergeReport {
 pub struct PlotReport(pub Redrawn);
 
 impl PlotReport {
-    /// Redraw the figures of the experiment in `dir` into `out_dir`.
-    pub fn run(dir: &Path, out_dir: Option<&Path>) -> Result<Self> {
-        redraw(dir, out_dir).map(Self)
+    /// Redraw the figures of the experiment in `dir` into `out_dir`, those
+    /// of `manifest` when given (else of the manifest it recorded).
+    pub fn run(dir: &Path, out_dir: Option<&Path>, manifest: Option<&Path>) -> Result<Self> {
+        redraw(dir, out_dir, manifest).map(Self)
     }
 }
 
