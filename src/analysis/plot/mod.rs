@@ -20,6 +20,16 @@
 //!   axis with no positive value at all is an error, never a panic.
 //! - Files are rendered fully in memory and then written atomically, so a
 //!   failure never leaves half a figure behind.
+//! - Titles, axis labels and captions always fit their space: each is
+//!   measured in the bundled font ([`fit_text`]) and set smaller, down to
+//!   [`MIN_TEXT_PX`], when it would be wider than the room it has (the
+//!   canvas width for a title, the plot's width or height for an axis
+//!   label). Text that does not fit even then is an error naming the
+//!   figure and the text, never a clipped image; shorten it.
+//! - Timing series may carry error bars ([`Series::errors`]): a vertical
+//!   bar from low to high at each point, with one legend entry saying what
+//!   the bars are (`crate::experiment::figures` draws the min–max spread
+//!   over a run's timed repeats this way).
 //!
 //! Layout: this file holds what every figure shares (the bundled font, the
 //! text sizes, the series palette, the scalar colour maps and the writing
@@ -86,6 +96,11 @@ const TICK_PX: f64 = 26.0;
 const LEGEND_PX: f64 = 26.0;
 const CAPTION_PX: f64 = 28.0;
 
+/// The smallest size, in pixels, a title or axis label is shrunk to so
+/// that it fits: two thirds of the tick labels' size, still legible when a
+/// 1200 px figure is shown at the width of a book's text column.
+pub const MIN_TEXT_PX: f64 = 18.0;
+
 const LINE_WIDTH: u32 = 3;
 const MARKER_RADIUS: i32 = 8;
 
@@ -104,6 +119,42 @@ fn ensure_font() -> anyhow::Result<()> {
 /// The bundled font at `px` pixels, in black.
 fn font(px: f64) -> TextStyle<'static> {
     (FONT_FAMILY, px).into_font().color(&BLACK)
+}
+
+/// The width in pixels of `text` set in the bundled font at `px` (what the
+/// PNG shows; an SVG viewer may substitute a font of similar width).
+pub fn text_width(text: &str, px: f64) -> anyhow::Result<f64> {
+    ensure_font()?;
+    let (w, _) = font(px)
+        .font
+        .box_size(text)
+        .map_err(|e| anyhow!("cannot measure the text \"{text}\": {e:?}"))?;
+    Ok(f64::from(w))
+}
+
+/// The size at which `text` (the figure's `what`: "title", "x axis
+/// label"…) fits in `room` pixels: `px` when it fits there, otherwise the
+/// largest whole size down to [`MIN_TEXT_PX`] that fits. An error when the
+/// text is wider than `room` even at [`MIN_TEXT_PX`].
+pub fn fit_text(what: &str, text: &str, px: f64, room: f64) -> anyhow::Result<f64> {
+    let w = text_width(text, px)?;
+    if w <= room {
+        return Ok(px);
+    }
+    // Width grows with size; start from the proportional guess and step
+    // down past rounding.
+    let mut size = (px * room / w).floor().min(px - 1.0);
+    while size >= MIN_TEXT_PX {
+        if text_width(text, size)? <= room {
+            return Ok(size);
+        }
+        size -= 1.0;
+    }
+    let at_min = text_width(text, MIN_TEXT_PX)?;
+    Err(anyhow!(
+        "the {what} \"{text}\" does not fit: {at_min:.0} px wide at the smallest \
+         text size ({MIN_TEXT_PX} px), {room:.0} px available; shorten it"
+    ))
 }
 
 /// plotters' errors are generic over the backend; keep only their message.
@@ -261,6 +312,18 @@ fn save_figure<F: Figure>(fig: &F, stem: &Path) -> anyhow::Result<()> {
         std::fs::write(tmp, svg.as_bytes())
             .with_context(|| format!("{}: cannot write SVG", svg_path.display()))
     })
+}
+
+/// Draw `fig` into a throw-away bitmap: every check drawing makes (text
+/// that does not fit, a log axis without positive data) without writing
+/// a file.
+fn check_figure<F: Figure>(fig: &F) -> anyhow::Result<()> {
+    ensure_font()?;
+    let (w, h) = fig.size();
+    let mut pixels = vec![255u8; w as usize * h as usize * 3];
+    let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+    root.fill(&WHITE).map_err(plot_err)?;
+    fig.draw(&root)
 }
 
 /// Blit an RGB buffer at an absolute pixel position of `root` (heatmap
