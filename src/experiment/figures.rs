@@ -259,6 +259,9 @@ fn add_references(chart: &mut LineChart, spec: &FigureSpec) {
 /// (x, y) points of one series.
 type Points = Vec<(f64, f64)>;
 
+/// (low, high) error bars, one per point of a series (empty for none).
+type Bars = Vec<(f64, f64)>;
+
 /// The legend entry of the error bars of a line figure.
 const LINE_ERROR_LABEL: &str = "bars: fastest to slowest repeat";
 
@@ -450,10 +453,7 @@ impl<'a> Data<'a> {
     /// the error bars of those points), from the rows `keep` accepts
     /// (series without such rows get no points but keep their place). The
     /// bars are empty when the y column has no recorded spread.
-    fn series_points(
-        &self,
-        keep: impl Fn(&[String]) -> bool,
-    ) -> Vec<(String, Points, Vec<(f64, f64)>)> {
+    fn series_points(&self, keep: impl Fn(&[String]) -> bool) -> Vec<(String, Points, Bars)> {
         let mut out = Vec::new();
         for (k, &y) in self.y.iter().enumerate() {
             let spread = spread(self.table, &self.table.columns[y]);
@@ -489,7 +489,7 @@ impl<'a> Data<'a> {
         spec: &FigureSpec,
         y: usize,
         param_columns: &[String],
-    ) -> anyhow::Result<(Points, Vec<(f64, f64)>)> {
+    ) -> anyhow::Result<(Points, Bars)> {
         let (Some(series), Some(num), Some(den)) = (
             self.series,
             spec.numerator.as_ref(),
