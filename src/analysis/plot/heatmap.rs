@@ -113,6 +113,9 @@ impl Heatmap {
 
 // Layout of a heatmap figure around the map, in pixels.
 const HM_LEFT: u32 = 150;
+/// Air left of the y axis label, which plotters sets at the very edge of
+/// its label area.
+const HM_PAD_LEFT: u32 = 20;
 const HM_TOP: u32 = 90;
 const HM_BOTTOM: u32 = 100;
 const HM_BAR_AREA: u32 = 300;
@@ -124,7 +127,7 @@ impl Figure for Heatmap {
     fn size(&self) -> (u32, u32) {
         let (w, h) = self.map_pixels();
         (
-            HM_LEFT + w + HM_BAR_AREA + HM_MARGIN,
+            HM_PAD_LEFT + HM_LEFT + w + HM_BAR_AREA + HM_MARGIN,
             HM_TOP + h + HM_BOTTOM,
         )
     }
@@ -173,7 +176,7 @@ impl Figure for Heatmap {
         // The title is centred over the map; it may reach as far to either
         // side as the nearer canvas edge allows.
         let (total_w, _) = root.dim_in_pixel();
-        let centre = HM_LEFT + map_w / 2;
+        let centre = HM_PAD_LEFT + HM_LEFT + map_w / 2;
         let room = 2.0 * f64::from(centre.min(total_w.saturating_sub(centre))) - 24.0;
         let title_px = fit_text("title", &self.title, TITLE_PX, room)?;
         root.draw_text(
@@ -184,8 +187,8 @@ impl Figure for Heatmap {
         .map_err(plot_err)?;
 
         // The map: axes in cell units, the cells drawn as one bitmap.
-        let (map_area, bar_area) = root.split_horizontally(HM_LEFT + map_w);
-        let map_area = map_area.margin(HM_TOP, 0, 0, 0);
+        let (map_area, bar_area) = root.split_horizontally(HM_PAD_LEFT + HM_LEFT + map_w);
+        let map_area = map_area.margin(HM_TOP, 0, HM_PAD_LEFT, 0);
         // Row 0 at the top: by default the y axis runs from `rows` (bottom)
         // to 0 (top).
         let [left, right, bottom, top] =

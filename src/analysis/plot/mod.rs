@@ -25,7 +25,9 @@
 //!   [`MIN_TEXT_PX`], when it would be wider than the room it has (the
 //!   canvas width for a title, the plot's width or height for an axis
 //!   label). Text that does not fit even then is an error naming the
-//!   figure and the text, never a clipped image; shorten it.
+//!   figure and the text, never a clipped image; shorten it. As a last
+//!   guard, a figure with ink in the canvas's outermost pixels (something
+//!   drawn across the edge) is an error too.
 //! - Timing series may carry error bars ([`Series::errors`]): a vertical
 //!   bar from low to high at each point, with one legend entry saying what
 //!   the bars are (`crate::experiment::figures` draws the min–max spread
@@ -293,6 +295,7 @@ fn save_figure<F: Figure>(fig: &F, stem: &Path) -> anyhow::Result<()> {
         fig.draw(&root)?;
         root.present().map_err(plot_err)?;
     }
+    check_edges(&pixels, w, h)?;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
@@ -314,6 +317,31 @@ fn save_figure<F: Figure>(fig: &F, stem: &Path) -> anyhow::Result<()> {
     })
 }
 
+/// Every figure leaves a white margin at the canvas edge; ink in the
+/// outermost pixels means something drawn (a title, a rotated axis label)
+/// runs off the canvas and is clipped. An error naming the edge.
+fn check_edges(rgb: &[u8], w: u32, h: u32) -> anyhow::Result<()> {
+    let (w, h) = (w as usize, h as usize);
+    let ink = |x: usize, y: usize| {
+        rgb[3 * (y * w + x)..3 * (y * w + x) + 3]
+            .iter()
+            .any(|&c| c < 200)
+    };
+    let edges = [
+        ("left", (0..h).any(|y| ink(0, y))),
+        ("right", (0..h).any(|y| ink(w - 1, y))),
+        ("top", (0..w).any(|x| ink(x, 0))),
+        ("bottom", (0..w).any(|x| ink(x, h - 1))),
+    ];
+    match edges.iter().find(|e| e.1) {
+        Some((edge, _)) => Err(anyhow!(
+            "something is drawn across the {edge} edge of the canvas and clipped \
+             (a title or label too long for its place?)"
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Draw `fig` into a throw-away bitmap: every check drawing makes (text
 /// that does not fit, a log axis without positive data) without writing
 /// a file.
@@ -321,9 +349,13 @@ fn check_figure<F: Figure>(fig: &F) -> anyhow::Result<()> {
     ensure_font()?;
     let (w, h) = fig.size();
     let mut pixels = vec![255u8; w as usize * h as usize * 3];
-    let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
-    root.fill(&WHITE).map_err(plot_err)?;
-    fig.draw(&root)
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        fig.draw(&root)?;
+        root.present().map_err(plot_err)?;
+    }
+    check_edges(&pixels, w, h)
 }
 
 /// Blit an RGB buffer at an absolute pixel position of `root` (heatmap
@@ -347,6 +379,19 @@ fn draw_bitmap<DB: DrawingBackend>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ink_at_the_canvas_edge_is_an_error() {
+        let (w, h) = (20u32, 10u32);
+        let mut px = vec![255u8; (w * h * 3) as usize];
+        assert!(check_edges(&px, w, h).is_ok());
+        // A dark pixel inside is fine; one on the left edge is clipped text.
+        px[3 * (5 * w as usize + 5)] = 0;
+        assert!(check_edges(&px, w, h).is_ok());
+        px[3 * (5 * w as usize)] = 0;
+        let err = check_edges(&px, w, h).unwrap_err().to_string();
+        assert!(err.contains("left edge"), "{err}");
+    }
 
     #[test]
     fn palettes_hit_their_published_ends() {
