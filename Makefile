@@ -63,7 +63,7 @@ test: deps
 
 ## book: the book (book/book/index.html): the quick experiments make its
 ## figures, mdBook + mdbook-katex (installed into .deps/tools when missing)
-## build it, and scripts/check-book-links.py checks its links and images.
+## build it, and scripts/check-book-links.py checks its links, images, maths and titles.
 book: build
 	@scripts/book
 

@@ -438,7 +438,9 @@ fn quick_convergence_manifest_runs_and_reports_leaks_and_divergence() {
         ..Options::default()
     };
     let report = run_experiment(&path, &opts).unwrap();
-    assert_eq!(report.runs_done, 4 + 6 + 1 + 3 + 2);
+    // snapshots 4, alpha 7 gains × 2 averagings, alpha-clamped 1,
+    // resolution 3, leak 2.
+    assert_eq!(report.runs_done, 4 + 14 + 1 + 3 + 2);
     assert_eq!(report.figures.len(), m.figures.len());
     let mut rows = csv::Reader::from_path(dir.path().join("data.csv")).unwrap();
     let headers = rows.headers().unwrap().clone();

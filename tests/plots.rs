@@ -274,3 +274,88 @@ fn image_grid_captions_every_cell() {
     let empty = ImageGrid::new("empty", 2);
     assert!(empty.save(&out.path.join("empty-grid")).is_err());
 }
+
+#[test]
+fn long_titles_shrink_to_fit_and_impossible_ones_are_errors() {
+    use raylab::analysis::plot::{fit_text, text_width, MIN_TEXT_PX};
+    // A title that fits is kept at its size.
+    assert_eq!(fit_text("title", "Short", 40.0, 1000.0).unwrap(), 40.0);
+    // One too wide at 40 px is set smaller, and then fits.
+    let long = "Mean luminance against the gain α, S4's scheme, both averagings";
+    assert!(text_width(long, 40.0).unwrap() > 1000.0);
+    let px = fit_text("title", long, 40.0, 1000.0).unwrap();
+    assert!((MIN_TEXT_PX..40.0).contains(&px), "{px}");
+    assert!(text_width(long, px).unwrap() <= 1000.0);
+    // One that cannot fit even at the smallest size is an error naming it.
+    let err = fit_text("title", &long.repeat(4), 40.0, 1000.0).unwrap_err();
+    assert!(err.to_string().contains("does not fit"), "{err}");
+    // Through a chart: saving fails, naming the chart, and writes nothing.
+    let dir = out_dir();
+    let mut chart = cost_curves();
+    chart.title = long.repeat(3);
+    let stem = dir.path.join("too-long-title");
+    let err = format!("{:#}", chart.save(&stem).unwrap_err());
+    assert!(
+        err.contains("line chart") && err.contains("does not fit"),
+        "{err}"
+    );
+    assert!(!stem.with_extension("png").exists());
+}
+
+#[test]
+fn every_manifest_figure_title_and_label_fits() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("analysis");
+    let mut checked = 0;
+    let mut manifests: Vec<PathBuf> = std::fs::read_dir(&root)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    manifests.sort();
+    assert!(!manifests.is_empty(), "no manifests in {}", root.display());
+    let mut failures = Vec::new();
+    for path in &manifests {
+        let m = raylab::experiment::load_manifest(path).unwrap();
+        let quick = m.with_quick().unwrap();
+        for spec in m.figures.iter().chain(&quick.figures) {
+            if let Err(e) = raylab::experiment::figures::check_text(spec) {
+                failures.push(format!("{}: {e:#}", path.display()));
+            }
+            checked += 1;
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert!(checked > 20, "only {checked} figures checked");
+}
+
+#[test]
+fn error_bars_widen_the_axis_and_get_a_legend_entry() {
+    let dir = out_dir();
+    let mut chart = LineChart::new("Timing with spread", "pixels", "seconds");
+    chart.series.push(
+        Series::new(
+            "median",
+            vec![(1.0, 1.0), (2.0, 2.0), (3.0, 3.0)],
+            SeriesStyle::LinePoints,
+        )
+        .with_errors(vec![(0.5, 1.5), (2.0, 2.0), (2.5, 9.0)]),
+    );
+    chart.error_label = "bars: fastest to slowest repeat".to_string();
+    let stem = dir.path.join("error-bars");
+    chart.save(&stem).unwrap();
+    let svg = std::fs::read_to_string(stem.with_extension("svg")).unwrap();
+    assert!(svg.contains("bars: fastest to slowest repeat"));
+    // The top bar end (9) is inside the y axis: a tick label of 8 exists.
+    let texts: Vec<&str> = svg
+        .split("<text")
+        .skip(1)
+        .filter_map(|t| t.split_once('>').and_then(|(_, r)| r.split('<').next()))
+        .map(str::trim)
+        .collect();
+    assert!(texts.contains(&"8"), "y axis ignores the bars: {texts:?}");
+    // Without any bar of non-zero length, no legend entry.
+    chart.series[0].errors = vec![(1.0, 1.0), (2.0, 2.0), (3.0, 3.0)];
+    chart.save(&stem).unwrap();
+    let svg = std::fs::read_to_string(stem.with_extension("svg")).unwrap();
+    assert!(!svg.contains("bars: fastest"));
+}

@@ -19,9 +19,38 @@
 //! figure's `dashed_where` column splits off estimated rows (such
 //! as extrapolated times) into dashed series.
 //!
+//! Titles and series labels quote the data instead of hard-coding what a
+//! run happens to contain ([`fill`]): `{range:COLUMN}` becomes the range of
+//! the column's numbers ("1–4", or "4" when all are equal), `{COLUMN}` its
+//! distinct values ("1, 2, 4"), and `{COLUMN#N}` the distinct values of
+//! field N of each cell split at `:` (`{sampler#1}` of `adaptive:0.2:2` is
+//! `0.2`). A title reads the figure's rows, a series label that series'
+//! rows, so a quick run's figure says what the quick run measured.
+//!
 //! Reference series from the manifest (published values) are drawn beside
 //! the measured ones, dashed by default. Files are written as `FILE.png`
 //! and `FILE.svg` by [`crate::analysis::plot`].
+//!
+//! **Error bars on timings.** A time is a median over the timed repeats,
+//! and the rows also carry the fastest and slowest repeat. When a line or
+//! ratio figure plots a timing column, each point gets a bar from the value
+//! the fastest repeat gives to the value the slowest gives ([`spread`]):
+//!
+//! - `X_median_s`: from `X_min_s` to `X_max_s` (e.g. `render_median_s`);
+//!   `time_per_frame_s` likewise from `time_min_s` to `time_max_s`;
+//! - a column computed from `render_median_s` is recomputed with the
+//!   slowest and the fastest repeat: `rays_per_s` (∝ 1/t) from
+//!   rays/t_max to rays/t_min, `ns_per_sample` (∝ t) from t_min to t_max,
+//!   `total_s` (build + t) from build + t_min to build + t_max;
+//! - a ratio of two timed runs, num/den, spans the extremes the repeats
+//!   allow: from num's fastest over den's slowest (t_min/t_max) to num's
+//!   slowest over den's fastest (t_max/t_min), which contains the ratio of
+//!   any pairing of the repeats.
+//!
+//! Where several rows share a point (averaged, as above), the bar's ends
+//! are averaged the same way. With one repeat the bars have zero length and
+//! are not drawn; a timing column without a recorded spread (CPU times,
+//! per-step times) gets none. The legend says what the bars are.
 
 use super::data::Table;
 use super::manifest::{FigureKind, FigureSpec, ReferenceStyle};
@@ -83,7 +112,8 @@ pub fn draw(
             let estimated = |r: &[String]| flag.is_some_and(|f| r[f] == "true");
             let measured = fig.series_points(|r| !estimated(r));
             let dashed = fig.series_points(estimated);
-            for ((label, points), (_, mut extra)) in measured.into_iter().zip(dashed) {
+            chart.error_label = LINE_ERROR_LABEL.to_string();
+            for ((label, points, errors), (_, mut extra, _)) in measured.into_iter().zip(dashed) {
                 // Join the dashed part to the last measured point before it.
                 if let Some(&(first_x, _)) = extra.first() {
                     if let Some(&last) = points.iter().rev().find(|p| p.0 < first_x) {
@@ -95,9 +125,9 @@ pub fn draw(
                         Some(k) if spec.fit_slope => format!("{label} (slope {k:.2})"),
                         _ => label.clone(),
                     };
-                    chart
-                        .series
-                        .push(Series::new(shown, points, SeriesStyle::LinePoints));
+                    chart.series.push(
+                        Series::new(shown, points, SeriesStyle::LinePoints).with_errors(errors),
+                    );
                 }
                 if !extra.is_empty() {
                     chart.series.push(Series::new(
@@ -113,9 +143,10 @@ pub fn draw(
         }
         FigureKind::Ratio => {
             let mut chart = fig.line_chart(spec, scale);
+            chart.error_label = RATIO_ERROR_LABEL.to_string();
             let mut means = Vec::new();
             for (k, &y) in fig.y.iter().enumerate() {
-                let points = fig.ratio_points(spec, y, param_columns)?;
+                let (points, errors) = fig.ratio_points(spec, y, param_columns)?;
                 let label = match spec.series_labels.get(&spec.y[k]) {
                     Some(l) => l.clone(),
                     None if fig.y.len() == 1 => "raylab (measured)".to_string(),
@@ -124,7 +155,7 @@ pub fn draw(
                 means.push(SeriesMean::new(&label, &points, true));
                 chart
                     .series
-                    .push(Series::new(label, points, SeriesStyle::LinePoints));
+                    .push(Series::new(label, points, SeriesStyle::LinePoints).with_errors(errors));
             }
             add_references(&mut chart, spec);
             chart.save(&stem)?;
@@ -145,6 +176,44 @@ pub fn draw(
             Ok(None)
         }
     }
+}
+
+/// Draw the frame of figure `spec` in memory, its title and axis labels
+/// as [`draw`] sets them, on two stand-in points (legend entries of real
+/// data are not checked): an error when a text does not fit even at the
+/// smallest text size. Lets a test check every manifest's figures without
+/// running the experiments.
+pub fn check_text(spec: &FigureSpec) -> anyhow::Result<()> {
+    let scale = |log: bool| if log { Scale::Log10 } else { Scale::Linear };
+    let x_label = spec.x_label.clone().unwrap_or_else(|| spec.x.clone());
+    let y_label = match spec.kind {
+        FigureKind::Ratio => ratio_label(spec),
+        _ => spec.y_label.clone().unwrap_or_else(|| spec.y.join(", ")),
+    };
+    let points = vec![(1.0, 1.0), (2.0, 2.0)];
+    let checked = match spec.kind {
+        FigureKind::Line | FigureKind::Ratio => {
+            let mut chart = LineChart::new(spec.title.clone(), x_label, y_label);
+            chart.x_scale = scale(spec.x_log);
+            chart.y_scale = scale(spec.y_log);
+            chart
+                .series
+                .push(Series::new("data", points, SeriesStyle::LinePoints));
+            chart.check()
+        }
+        FigureKind::Bar => {
+            let mut chart = BarChart::new(
+                spec.title.clone(),
+                x_label,
+                y_label,
+                vec!["a".to_string(), "b".to_string()],
+            );
+            chart.y_scale = scale(spec.y_log);
+            chart.series.push(BarSeries::new("data", vec![1.0, 2.0]));
+            chart.check()
+        }
+    };
+    checked.map_err(|e| anyhow!("figure `{}`: {e:#}", spec.file))
 }
 
 /// The y label of a ratio figure: the manifest's, or `y(num) / y(den)`.
@@ -190,6 +259,72 @@ fn add_references(chart: &mut LineChart, spec: &FigureSpec) {
 /// (x, y) points of one series.
 type Points = Vec<(f64, f64)>;
 
+/// (low, high) error bars, one per point of a series (empty for none).
+type Bars = Vec<(f64, f64)>;
+
+/// The legend entry of the error bars of a line figure.
+const LINE_ERROR_LABEL: &str = "bars: fastest to slowest repeat";
+
+/// The legend entry of the error bars of a ratio figure.
+const RATIO_ERROR_LABEL: &str = "bars: extreme ratios of the repeats";
+
+/// How the timed repeats spread a timing column: column indices of the
+/// table, see the module docs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Spread {
+    /// The column's own bounds: (min, max).
+    Bounds(usize, usize),
+    /// A column ∝ the median time: (median, min, max).
+    Proportional(usize, usize, usize),
+    /// A column ∝ 1 / the median time: (median, min, max).
+    Inverse(usize, usize, usize),
+    /// A column = something untimed + the median time: (median, min, max).
+    Offset(usize, usize, usize),
+}
+
+/// The spread of the timing column `name` over the repeats, when the
+/// table records one (see the module docs).
+fn spread(table: &Table, name: &str) -> Option<Spread> {
+    let col = |c: &str| table.column(c);
+    if let Some(stem) = name.strip_suffix("_median_s") {
+        return Some(Spread::Bounds(
+            col(&format!("{stem}_min_s"))?,
+            col(&format!("{stem}_max_s"))?,
+        ));
+    }
+    if name == "time_per_frame_s" {
+        return Some(Spread::Bounds(col("time_min_s")?, col("time_max_s")?));
+    }
+    let render = || {
+        Some((
+            col("render_median_s")?,
+            col("render_min_s")?,
+            col("render_max_s")?,
+        ))
+    };
+    match name {
+        "rays_per_s" => render().map(|(m, a, b)| Spread::Inverse(m, a, b)),
+        "ns_per_sample" => render().map(|(m, a, b)| Spread::Proportional(m, a, b)),
+        "total_s" => render().map(|(m, a, b)| Spread::Offset(m, a, b)),
+        _ => None,
+    }
+}
+
+impl Spread {
+    /// (low, high) of the value `y` of `row`: what the fastest and the
+    /// slowest repeat give, ordered low to high.
+    fn bounds(self, row: &[String], y: f64) -> (f64, f64) {
+        let n = |c: usize| number(&row[c]);
+        let (a, b) = match self {
+            Spread::Bounds(lo, hi) => (n(lo), n(hi)),
+            Spread::Proportional(m, lo, hi) => (y * n(lo) / n(m), y * n(hi) / n(m)),
+            Spread::Inverse(m, lo, hi) => (y * n(m) / n(hi), y * n(m) / n(lo)),
+            Spread::Offset(m, lo, hi) => (y - n(m) + n(lo), y - n(m) + n(hi)),
+        };
+        (a.min(b), a.max(b))
+    }
+}
+
 /// The selected rows of one figure, as (series value, x cell, x, y).
 struct Data<'a> {
     spec: &'a FigureSpec,
@@ -230,6 +365,12 @@ impl<'a> Data<'a> {
                     .unwrap_or_default()
             );
         }
+        // Check the placeholders of the title and labels once, so that
+        // filling them later cannot fail.
+        fill(&spec.title, table, &rows).map_err(|e| anyhow!("figure `{}`: {e}", spec.file))?;
+        for label in spec.series_labels.values() {
+            fill(label, table, &rows).map_err(|e| anyhow!("figure `{}`: {e}", spec.file))?;
+        }
         Ok(Data {
             spec,
             table,
@@ -256,11 +397,23 @@ impl<'a> Data<'a> {
                 .unwrap_or_else(|| key.to_string())
         };
         let y = named(&self.spec.y[k]);
-        match (self.series.is_some(), self.y.len()) {
+        let text = match (self.series.is_some(), self.y.len()) {
             (false, _) => y,
             (true, 1) => named(value),
             (true, _) => format!("{}, {y}", named(value)),
-        }
+        };
+        let rows: Vec<&Vec<String>> = self
+            .rows
+            .iter()
+            .copied()
+            .filter(|r| self.series_of(r) == value)
+            .collect();
+        fill(&text, self.table, &rows).unwrap_or(text)
+    }
+
+    /// The figure's title with its placeholders filled from its rows.
+    fn title(&self) -> String {
+        fill(&self.spec.title, self.table, &self.rows).unwrap_or_else(|_| self.spec.title.clone())
     }
 
     fn line_chart(&self, spec: &FigureSpec, scale: impl Fn(bool) -> Scale) -> LineChart {
@@ -269,7 +422,7 @@ impl<'a> Data<'a> {
             _ => spec.y_label.clone().unwrap_or_else(|| spec.y.join(", ")),
         };
         let mut chart = LineChart::new(
-            spec.title.clone(),
+            self.title(),
             spec.x_label.clone().unwrap_or_else(|| spec.x.clone()),
             y_label,
         );
@@ -296,34 +449,47 @@ impl<'a> Data<'a> {
         values
     }
 
-    /// Per y column and series: (legend text, (x, mean y) sorted by x),
-    /// from the rows `keep` accepts (series without such rows get no
-    /// points but keep their place).
-    fn series_points(&self, keep: impl Fn(&[String]) -> bool) -> Vec<(String, Points)> {
+    /// Per y column and series: (legend text, (x, mean y) sorted by x,
+    /// the error bars of those points), from the rows `keep` accepts
+    /// (series without such rows get no points but keep their place). The
+    /// bars are empty when the y column has no recorded spread.
+    fn series_points(&self, keep: impl Fn(&[String]) -> bool) -> Vec<(String, Points, Bars)> {
         let mut out = Vec::new();
         for (k, &y) in self.y.iter().enumerate() {
+            let spread = spread(self.table, &self.table.columns[y]);
             for value in self.series_values() {
-                let mut pts: Points = self
+                let mut pts: Vec<(f64, [f64; 3])> = self
                     .rows
                     .iter()
                     .filter(|r| self.series_of(r) == value && keep(r))
-                    .map(|r| (number(&r[self.x]), number(&r[y])))
+                    .map(|r| {
+                        let v = number(&r[y]);
+                        let (lo, hi) = spread.map_or((v, v), |s| s.bounds(r, v));
+                        (number(&r[self.x]), [v, lo, hi])
+                    })
                     .collect();
                 pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-                out.push((self.label(&value, k), average_equal_x(pts)));
+                let merged = average_equal_x(pts);
+                let points = merged.iter().map(|&(x, v)| (x, v[0])).collect();
+                let errors = match spread {
+                    Some(_) => merged.iter().map(|&(_, v)| (v[1], v[2])).collect(),
+                    None => Vec::new(),
+                };
+                out.push((self.label(&value, k), points, errors));
             }
         }
         out
     }
 
-    /// Ratio points: rows paired on sweep and every parameter but the
-    /// series column.
+    /// Ratio points, rows paired on sweep and every parameter but the
+    /// series column, and their error bars when y has a recorded spread
+    /// (from num's low over den's high to num's high over den's low).
     fn ratio_points(
         &self,
         spec: &FigureSpec,
         y: usize,
         param_columns: &[String],
-    ) -> anyhow::Result<Points> {
+    ) -> anyhow::Result<(Points, Bars)> {
         let (Some(series), Some(num), Some(den)) = (
             self.series,
             spec.numerator.as_ref(),
@@ -345,8 +511,10 @@ impl<'a> Data<'a> {
             .filter_map(|c| self.table.column(c))
             .filter(|&c| c != series)
             .collect();
-        // key → (x, numerator ys, denominator ys), in order of appearance.
-        type Pair = (Vec<String>, f64, Vec<f64>, Vec<f64>);
+        let spread = spread(self.table, &self.table.columns[y]);
+        // key → (x, numerator [y, lo, hi]s, denominator [y, lo, hi]s), in
+        // order of appearance.
+        type Pair = (Vec<String>, f64, Vec<[f64; 3]>, Vec<[f64; 3]>);
         let mut pairs: Vec<Pair> = Vec::new();
         for r in &self.rows {
             let which = &r[series];
@@ -361,17 +529,30 @@ impl<'a> Data<'a> {
                     pairs.len() - 1
                 }
             };
-            let value = number(&r[y]);
+            let v = number(&r[y]);
+            let (lo, hi) = spread.map_or((v, v), |s| s.bounds(r, v));
+            let value = [v, lo, hi];
             if which == num {
                 pairs[i].2.push(value);
             } else {
                 pairs[i].3.push(value);
             }
         }
-        let mut points: Vec<(f64, f64)> = pairs
+        let part = |v: &[[f64; 3]], i: usize| mean(&v.iter().map(|t| t[i]).collect::<Vec<_>>());
+        let mut points: Vec<(f64, [f64; 3])> = pairs
             .iter()
             .filter(|p| !p.2.is_empty() && !p.3.is_empty())
-            .map(|p| (p.1, mean(&p.2) / mean(&p.3)))
+            .map(|p| {
+                let (n, d) = (&p.2, &p.3);
+                (
+                    p.1,
+                    [
+                        part(n, 0) / part(d, 0),
+                        part(n, 1) / part(d, 2),
+                        part(n, 2) / part(d, 1),
+                    ],
+                )
+            })
             .collect();
         if points.is_empty() {
             bail!(
@@ -382,7 +563,11 @@ impl<'a> Data<'a> {
             );
         }
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
-        Ok(points)
+        let errors = match spread {
+            Some(_) => points.iter().map(|&(_, v)| (v[1], v[2])).collect(),
+            None => Vec::new(),
+        };
+        Ok((points.iter().map(|&(x, v)| (x, v[0])).collect(), errors))
     }
 
     fn bar_chart(&self, spec: &FigureSpec, y_scale: Scale) -> BarChart {
@@ -397,7 +582,7 @@ impl<'a> Data<'a> {
             cats.sort_by(|a, b| number(a).total_cmp(&number(b)));
         }
         let mut chart = BarChart::new(
-            spec.title.clone(),
+            self.title(),
             spec.x_label.clone().unwrap_or_else(|| spec.x.clone()),
             spec.y_label.clone().unwrap_or_else(|| spec.y.join(", ")),
             cats.clone(),
@@ -440,6 +625,76 @@ impl<'a> Data<'a> {
     }
 }
 
+/// `text` with its placeholders (see the module docs) filled from `rows`
+/// of `table`. An error names a placeholder whose column `table` lacks, or
+/// a range over a column without numbers.
+pub fn fill(text: &str, table: &Table, rows: &[&Vec<String>]) -> anyhow::Result<String> {
+    let mut out = String::new();
+    let mut rest = text;
+    while let Some(open) = rest.find('{') {
+        let Some(len) = rest[open..].find('}') else {
+            break;
+        };
+        out.push_str(&rest[..open]);
+        let inner = &rest[open + 1..open + len];
+        rest = &rest[open + len + 1..];
+        let (range, name) = match inner.strip_prefix("range:") {
+            Some(n) => (true, n),
+            None => (false, inner),
+        };
+        let (name, field) = match name.split_once('#') {
+            Some((n, f)) => (
+                n,
+                Some(f.parse::<usize>().map_err(|_| {
+                    anyhow!("placeholder `{{{inner}}}`: `{f}` is not a field number")
+                })?),
+            ),
+            None => (name, None),
+        };
+        let col = table
+            .column(name)
+            .ok_or_else(|| anyhow!("placeholder `{{{inner}}}`: data.csv has no column `{name}`"))?;
+        let cells: Vec<&str> = rows
+            .iter()
+            .map(|r| match field {
+                Some(f) => r[col].split(':').nth(f).unwrap_or(""),
+                None => r[col].as_str(),
+            })
+            .filter(|c| !c.trim().is_empty())
+            .collect();
+        if range {
+            let nums: Vec<f64> = cells
+                .iter()
+                .map(|c| number(c))
+                .filter(|v| v.is_finite())
+                .collect();
+            let lo = nums.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = nums.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            if nums.is_empty() {
+                bail!("placeholder `{{{inner}}}`: column `{name}` has no numbers in these rows");
+            }
+            if lo == hi {
+                out.push_str(&format!("{lo}"));
+            } else {
+                out.push_str(&format!("{lo}–{hi}"));
+            }
+        } else {
+            let mut distinct: Vec<&str> = Vec::new();
+            for c in cells {
+                if !distinct.contains(&c) {
+                    distinct.push(c);
+                }
+            }
+            if distinct.iter().all(|c| number(c).is_finite()) {
+                distinct.sort_by(|a, b| number(a).total_cmp(&number(b)));
+            }
+            out.push_str(&distinct.join(", "));
+        }
+    }
+    out.push_str(rest);
+    Ok(out)
+}
+
 /// A cell as a number; NaN for empty or non-numeric cells (the charts skip
 /// non-finite points).
 fn number(cell: &str) -> f64 {
@@ -456,21 +711,93 @@ fn mean(v: &[f64]) -> f64 {
     }
 }
 
-/// Merge points with the same x (sorted input) into their mean y.
-fn average_equal_x(sorted: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
-    let mut out: Vec<(f64, Vec<f64>)> = Vec::new();
-    for (x, y) in sorted {
+/// Merge points with the same x (sorted input) into the mean of each of
+/// their values (y and the ends of its error bar).
+fn average_equal_x<const N: usize>(sorted: Vec<(f64, [f64; N])>) -> Vec<(f64, [f64; N])> {
+    let mut out: Vec<(f64, Vec<[f64; N]>)> = Vec::new();
+    for (x, v) in sorted {
         match out.last_mut() {
-            Some((lx, ys)) if *lx == x => ys.push(y),
-            _ => out.push((x, vec![y])),
+            Some((lx, vs)) if *lx == x => vs.push(v),
+            _ => out.push((x, vec![v])),
         }
     }
-    out.into_iter().map(|(x, ys)| (x, mean(&ys))).collect()
+    out.into_iter()
+        .map(|(x, vs)| {
+            (
+                x,
+                std::array::from_fn(|i| mean(&vs.iter().map(|v| v[i]).collect::<Vec<_>>())),
+            )
+        })
+        .collect()
 }
 
 #[cfg(test)]
 mod tests {
-    use super::fitted_slope;
+    use super::{fill, fitted_slope, spread, Spread, Table};
+
+    #[test]
+    fn titles_and_labels_quote_the_data() {
+        let table = Table {
+            columns: vec!["spp".to_string(), "sampler".to_string()],
+            rows: [
+                ["4", "adaptive:0.2:2"],
+                ["1", "adaptive:0.05:2"],
+                ["2", "adaptive:0.05:2"],
+            ]
+            .iter()
+            .map(|r| r.iter().map(|c| c.to_string()).collect())
+            .collect(),
+        };
+        let rows: Vec<&Vec<String>> = table.rows.iter().collect();
+        let f = |t: &str| fill(t, &table, &rows);
+        assert_eq!(f("MSE ({range:spp} spp)").unwrap(), "MSE (1–4 spp)");
+        assert_eq!(f("at {spp} spp").unwrap(), "at 1, 2, 4 spp");
+        assert_eq!(f("thresholds {sampler#1}").unwrap(), "thresholds 0.05, 0.2");
+        assert_eq!(f("no placeholder").unwrap(), "no placeholder");
+        assert_eq!(f("{range:spp}").unwrap(), "1–4");
+        let one = vec![&table.rows[0]];
+        assert_eq!(fill("{range:spp} spp", &table, &one).unwrap(), "4 spp");
+        assert!(f("{nope}")
+            .unwrap_err()
+            .to_string()
+            .contains("no column `nope`"));
+        assert!(f("{range:sampler}").is_err());
+    }
+
+    #[test]
+    fn timing_spreads_follow_the_fastest_and_slowest_repeat() {
+        let columns = [
+            "render_median_s",
+            "render_min_s",
+            "render_max_s",
+            "rays_per_s",
+            "ns_per_sample",
+            "total_s",
+            "render_cpu_median_s",
+        ];
+        let table = Table {
+            columns: columns.iter().map(|c| c.to_string()).collect(),
+            rows: Vec::new(),
+        };
+        // Median 2 s, fastest 1 s, slowest 4 s; 20 rays; build 1 s.
+        let row: Vec<String> = ["2", "1", "4", "10", "5", "3", "7"]
+            .iter()
+            .map(|c| c.to_string())
+            .collect();
+        let bounds = |name: &str, y: f64| spread(&table, name).map(|s| s.bounds(&row, y));
+        assert_eq!(
+            spread(&table, "render_median_s"),
+            Some(Spread::Bounds(1, 2))
+        );
+        assert_eq!(bounds("render_median_s", 2.0), Some((1.0, 4.0)));
+        // 20 rays in 4 s … 1 s.
+        assert_eq!(bounds("rays_per_s", 10.0), Some((5.0, 20.0)));
+        assert_eq!(bounds("ns_per_sample", 5.0), Some((2.5, 10.0)));
+        assert_eq!(bounds("total_s", 3.0), Some((2.0, 5.0)));
+        // No min/max recorded for CPU time: no bars.
+        assert_eq!(spread(&table, "render_cpu_median_s"), None);
+        assert_eq!(spread(&table, "tests_per_ray"), None);
+    }
 
     #[test]
     fn slope_of_a_power_law_on_log_axes_is_its_exponent() {

@@ -201,8 +201,9 @@ fn linear_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
 
 /// Log-axis ticks in log10 space: majors at powers of ten (every n-th
 /// decade when there are more than eight), and when the range holds fewer
-/// than three powers, the 2·10ᵏ and 5·10ᵏ values as well (then every
-/// m·10ᵏ), so an axis spanning a decade or less still has labelled ticks.
+/// than three powers, the 2·10ᵏ and 5·10ᵏ values as well (then 3·10ᵏ and
+/// 7·10ᵏ, then every m·10ᵏ), so an axis spanning a decade or less still has
+/// labelled ticks.
 /// Minor ticks at m·10ᵏ give the familiar log-paper grid. The flag says
 /// whether the majors are not all powers of ten.
 fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>, bool) {
@@ -225,6 +226,11 @@ fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>, bool) {
     if major.len() < 3 {
         major = mantissas(&[1.0, 2.0, 5.0]);
         plain = true;
+    }
+    // Then 1, 2, 3, 5, 7 before every mantissa: on a log axis 7, 8, 9 and
+    // 10 sit so close that their labels run into each other.
+    if major.len() < 3 {
+        major = mantissas(&[1.0, 2.0, 3.0, 5.0, 7.0]);
     }
     if major.len() < 3 {
         major = mantissas(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]);

@@ -4,7 +4,7 @@
 
 use super::axis::{to_plot, Axis, Scale};
 use super::chart::{build_chart, draw_legend, place_legend, LegendPosition};
-use super::{plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE};
+use super::{check_figure, plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE};
 use anyhow::{ensure, Context};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -74,6 +74,13 @@ impl BarChart {
     /// Write `stem.png` and `stem.svg`.
     pub fn save(&self, stem: &Path) -> anyhow::Result<()> {
         save_figure(self, stem).with_context(|| format!("bar chart \"{}\"", self.title))
+    }
+
+    /// Draw the chart in memory only: an error where [`Self::save`] would
+    /// fail (a title or axis label that does not fit, a log axis without
+    /// positive data).
+    pub fn check(&self) -> anyhow::Result<()> {
+        check_figure(self).with_context(|| format!("bar chart \"{}\"", self.title))
     }
 }
 

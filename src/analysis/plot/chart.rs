@@ -6,7 +6,7 @@
 
 use super::axis::{Axis, AxisCoord};
 use super::{
-    font, plot_err, AXIS_DESC_PX, LEGEND_PX, LINE_WIDTH, MARKER_RADIUS, TICK_PX, TITLE_PX,
+    fit_text, font, plot_err, AXIS_DESC_PX, LEGEND_PX, LINE_WIDTH, MARKER_RADIUS, TICK_PX, TITLE_PX,
 };
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -172,20 +172,28 @@ pub(super) fn build_chart<'a, DB: DrawingBackend>(
     y_label: &str,
     x_fmt: &dyn Fn(&f64) -> String,
 ) -> anyhow::Result<Chart2d<'a, DB>> {
+    let (width, _) = root.dim_in_pixel();
+    let title_px = fit_text("title", title, TITLE_PX, f64::from(width) - 2.0 * 28.0)?;
     let mut chart = ChartBuilder::on(root)
-        .caption(title, font(TITLE_PX))
+        .caption(title, font(title_px))
         .margin(28)
         .x_label_area_size(96)
         .y_label_area_size(150)
         .build_cartesian_2d(x.coord(), y.coord())
         .map_err(plot_err)?;
+    // Axis labels run along the plot area (the y label turned upright);
+    // both get the size the longer one needs, so they match.
+    let (plot_w, plot_h) = chart.plotting_area().dim_in_pixel();
+    let desc_px = fit_text("x axis label", x_label, AXIS_DESC_PX, f64::from(plot_w))?.min(
+        fit_text("y axis label", y_label, AXIS_DESC_PX, f64::from(plot_h))?,
+    );
     let y_fmt = |u: &f64| y.label(*u);
     chart
         .configure_mesh()
         .x_desc(x_label)
         .y_desc(y_label)
         .label_style(font(TICK_PX))
-        .axis_desc_style(font(AXIS_DESC_PX))
+        .axis_desc_style(font(desc_px))
         .x_label_formatter(x_fmt)
         .y_label_formatter(&y_fmt)
         .bold_line_style(RGBColor(205, 205, 205).stroke_width(1))

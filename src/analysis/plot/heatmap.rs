@@ -4,7 +4,8 @@
 
 use super::axis::{to_plot, Axis, Scale};
 use super::{
-    draw_bitmap, font, plot_err, save_figure, Figure, Palette, AXIS_DESC_PX, TICK_PX, TITLE_PX,
+    draw_bitmap, fit_text, font, plot_err, save_figure, Figure, Palette, AXIS_DESC_PX, TICK_PX,
+    TITLE_PX,
 };
 use anyhow::{ensure, Context};
 use ndarray::Array2;
@@ -112,6 +113,9 @@ impl Heatmap {
 
 // Layout of a heatmap figure around the map, in pixels.
 const HM_LEFT: u32 = 150;
+/// Air left of the y axis label, which plotters sets at the very edge of
+/// its label area.
+const HM_PAD_LEFT: u32 = 20;
 const HM_TOP: u32 = 90;
 const HM_BOTTOM: u32 = 100;
 const HM_BAR_AREA: u32 = 300;
@@ -123,7 +127,7 @@ impl Figure for Heatmap {
     fn size(&self) -> (u32, u32) {
         let (w, h) = self.map_pixels();
         (
-            HM_LEFT + w + HM_BAR_AREA + HM_MARGIN,
+            HM_PAD_LEFT + HM_LEFT + w + HM_BAR_AREA + HM_MARGIN,
             HM_TOP + h + HM_BOTTOM,
         )
     }
@@ -169,16 +173,22 @@ impl Figure for Heatmap {
         let (lo, hi) = (bar_axis.lo, bar_axis.hi);
 
         let (map_w, _) = self.map_pixels();
+        // The title is centred over the map; it may reach as far to either
+        // side as the nearer canvas edge allows.
+        let (total_w, _) = root.dim_in_pixel();
+        let centre = HM_PAD_LEFT + HM_LEFT + map_w / 2;
+        let room = 2.0 * f64::from(centre.min(total_w.saturating_sub(centre))) - 24.0;
+        let title_px = fit_text("title", &self.title, TITLE_PX, room)?;
         root.draw_text(
             &self.title,
-            &font(TITLE_PX).pos(Pos::new(HPos::Center, VPos::Top)),
-            ((HM_LEFT + map_w / 2) as i32, 20),
+            &font(title_px).pos(Pos::new(HPos::Center, VPos::Top)),
+            (centre as i32, 20),
         )
         .map_err(plot_err)?;
 
         // The map: axes in cell units, the cells drawn as one bitmap.
-        let (map_area, bar_area) = root.split_horizontally(HM_LEFT + map_w);
-        let map_area = map_area.margin(HM_TOP, 0, 0, 0);
+        let (map_area, bar_area) = root.split_horizontally(HM_PAD_LEFT + HM_LEFT + map_w);
+        let map_area = map_area.margin(HM_TOP, 0, HM_PAD_LEFT, 0);
         // Row 0 at the top: by default the y axis runs from `rows` (bottom)
         // to 0 (top).
         let [left, right, bottom, top] =
@@ -195,13 +205,26 @@ impl Figure for Heatmap {
             .map_err(plot_err)?;
         let x_fmt = |u: &f64| x.label(*u);
         let y_fmt = |u: &f64| y.label(*u);
+        let (plot_w, plot_h) = chart.plotting_area().dim_in_pixel();
+        let desc_px = fit_text(
+            "x axis label",
+            &self.x_label,
+            AXIS_DESC_PX,
+            f64::from(plot_w),
+        )?
+        .min(fit_text(
+            "y axis label",
+            &self.y_label,
+            AXIS_DESC_PX,
+            f64::from(plot_h),
+        )?);
         chart
             .configure_mesh()
             .disable_mesh()
             .x_desc(&self.x_label)
             .y_desc(&self.y_label)
             .label_style(font(TICK_PX))
-            .axis_desc_style(font(AXIS_DESC_PX))
+            .axis_desc_style(font(desc_px))
             .x_label_formatter(&x_fmt)
             .y_label_formatter(&y_fmt)
             .axis_style(BLACK.stroke_width(2))
@@ -268,9 +291,15 @@ impl Figure for Heatmap {
         if !self.value_label.is_empty() {
             let x = bbase.0 + bw as i32 + HM_BAR_LABELS as i32 - 30;
             let y = bbase.1 + bh as i32 / 2;
+            let px = fit_text(
+                "colour bar label",
+                &self.value_label,
+                AXIS_DESC_PX,
+                f64::from(bh),
+            )?;
             root.draw_text(
                 &self.value_label,
-                &font(AXIS_DESC_PX)
+                &font(px)
                     .transform(FontTransform::Rotate270)
                     .pos(Pos::new(HPos::Center, VPos::Center)),
                 (x, y),

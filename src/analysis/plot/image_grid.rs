@@ -2,7 +2,9 @@
 //! (renders at several sample counts, render / reference / ꟻLIP map),
 //! shown as 8-bit sRGB. Part of [`crate::analysis::plot`].
 
-use super::{draw_bitmap, font, plot_err, save_figure, Figure, CAPTION_PX, TITLE_PX};
+use super::{
+    draw_bitmap, fit_text, font, plot_err, save_figure, text_width, Figure, CAPTION_PX, TITLE_PX,
+};
 use crate::io::image::LinearImage;
 use crate::math::srgb_encode;
 use anyhow::{ensure, Context};
@@ -107,7 +109,10 @@ impl Figure for ImageGrid {
         let rows = self.rows() as u32;
         let w = GRID_PAD + cols * (bw + GRID_PAD);
         // Room for the title even when the grid is narrow.
-        let title_w = (self.title.chars().count() as f64 * TITLE_PX * 0.6) as u32 + 2 * GRID_PAD;
+        let title_w = text_width(&self.title, TITLE_PX)
+            .unwrap_or(self.title.chars().count() as f64 * TITLE_PX * 0.6)
+            .ceil() as u32
+            + 2 * GRID_PAD;
         (
             w.max(title_w).max(400),
             GRID_TITLE + rows * (bh + GRID_CAPTION + GRID_PAD),
@@ -120,9 +125,11 @@ impl Figure for ImageGrid {
         let cols = self.columns.clamp(1, self.cells.len().max(1)) as u32;
         let grid_w = GRID_PAD + cols * (bw + GRID_PAD);
         let x_off = (total_w.saturating_sub(grid_w)) / 2;
+        // `size` made the canvas wide enough for the title.
+        let title_px = fit_text("title", &self.title, TITLE_PX, f64::from(total_w))?;
         root.draw_text(
             &self.title,
-            &font(TITLE_PX).pos(Pos::new(HPos::Center, VPos::Top)),
+            &font(title_px).pos(Pos::new(HPos::Center, VPos::Top)),
             ((total_w / 2) as i32, 20),
         )
         .map_err(plot_err)?;
@@ -150,9 +157,15 @@ impl Figure for ImageGrid {
                 RGBColor(120, 120, 120).stroke_width(1),
             ))
             .map_err(plot_err)?;
+            let caption_px = fit_text(
+                "image caption",
+                caption,
+                CAPTION_PX,
+                f64::from(bw + GRID_PAD),
+            )?;
             root.draw_text(
                 caption,
-                &font(CAPTION_PX).pos(Pos::new(HPos::Center, VPos::Top)),
+                &font(caption_px).pos(Pos::new(HPos::Center, VPos::Top)),
                 ((cell_x + bw / 2) as i32, (cell_y + bh + 12) as i32),
             )
             .map_err(plot_err)?;

@@ -8,7 +8,8 @@ use super::chart::{
     LegendPosition, SeriesStyle, MARKERS,
 };
 use super::{
-    plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE, LINE_WIDTH, MARKER_RADIUS,
+    check_figure, plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE, LINE_WIDTH,
+    MARKER_RADIUS,
 };
 use anyhow::{anyhow, Context};
 use plotters::coord::Shift;
@@ -25,6 +26,10 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
     /// Line, markers, both, or dashed.
     pub style: SeriesStyle,
+    /// Error bars: (low, high) y values per point, in the order of
+    /// `points`; empty for none. A bar whose ends cannot be drawn (NaN, ≤ 0
+    /// on a log axis) or whose ends are equal is left out.
+    pub errors: Vec<(f64, f64)>,
 }
 
 impl Series {
@@ -34,7 +39,14 @@ impl Series {
             label: label.into(),
             points,
             style,
+            errors: Vec::new(),
         }
+    }
+
+    /// The same series with error bars, (low, high) per point.
+    pub fn with_errors(mut self, errors: Vec<(f64, f64)>) -> Self {
+        self.errors = errors;
+        self
     }
 }
 
@@ -57,6 +69,9 @@ pub struct LineChart {
     pub legend: LegendPosition,
     /// Canvas size in pixels, [`CHART_SIZE`] by default.
     pub size: (u32, u32),
+    /// The legend entry of the error bars (shown when any series has a
+    /// bar of non-zero length), e.g. "bars: min to max of 5 repeats".
+    pub error_label: String,
 }
 
 impl LineChart {
@@ -75,6 +90,7 @@ impl LineChart {
             series: Vec::new(),
             legend: LegendPosition::Auto,
             size: CHART_SIZE,
+            error_label: "error bars".to_string(),
         }
     }
 
@@ -82,6 +98,13 @@ impl LineChart {
     /// axis has data but none of it is positive.
     pub fn save(&self, stem: &Path) -> anyhow::Result<()> {
         save_figure(self, stem).with_context(|| format!("line chart \"{}\"", self.title))
+    }
+
+    /// Draw the chart in memory only: an error where [`Self::save`] would
+    /// fail (a title or axis label that does not fit, a log axis without
+    /// positive data).
+    pub fn check(&self) -> anyhow::Result<()> {
+        check_figure(self).with_context(|| format!("line chart \"{}\"", self.title))
     }
 
     /// The drawable points of each series in plot space, split into runs:
@@ -104,10 +127,28 @@ impl LineChart {
             .collect()
     }
 
+    /// The drawable error bars of series `i` in plot space: (x, low, high)
+    /// with low < high.
+    fn plot_bars(&self, i: usize) -> Vec<(f64, f64, f64)> {
+        let s = &self.series[i];
+        s.points
+            .iter()
+            .zip(&s.errors)
+            .filter_map(|(&(x, _), &(lo, hi))| {
+                let u = to_plot(self.x_scale, x)?;
+                let (a, b) = (to_plot(self.y_scale, lo)?, to_plot(self.y_scale, hi)?);
+                (a < b).then_some((u, a, b))
+            })
+            .collect()
+    }
+
     fn axes(&self, runs: &[Vec<Vec<(f64, f64)>>]) -> anyhow::Result<(Axis, Axis)> {
         let all = || runs.iter().flatten().flatten();
         let xs: Vec<f64> = all().map(|p| p.0).collect();
-        let ys: Vec<f64> = all().map(|p| p.1).collect();
+        let mut ys: Vec<f64> = all().map(|p| p.1).collect();
+        for i in 0..self.series.len() {
+            ys.extend(self.plot_bars(i).iter().flat_map(|b| [b.1, b.2]));
+        }
         let any_finite = self
             .series
             .iter()
@@ -143,14 +184,23 @@ impl Figure for LineChart {
         let shown: Vec<usize> = (0..self.series.len())
             .filter(|&i| !runs[i].is_empty())
             .collect();
-        let labels: Vec<&str> = shown
+        let bars: Vec<Vec<(f64, f64, f64)>> =
+            (0..self.series.len()).map(|i| self.plot_bars(i)).collect();
+        let any_bars = shown.iter().any(|&i| !bars[i].is_empty());
+        let mut labels: Vec<&str> = shown
             .iter()
             .map(|&i| self.series[i].label.as_str())
             .collect();
+        if any_bars {
+            labels.push(&self.error_label);
+        }
         let mut occupied = Vec::new();
         for &i in &shown {
             for run in &runs[i] {
                 sample_polyline(&x, &y, run, &mut occupied);
+            }
+            for &(u, lo, hi) in &bars[i] {
+                sample_polyline(&x, &y, &[(u, lo), (u, hi)], &mut occupied);
             }
         }
         let (legend, headroom) = place_legend(self.legend, &labels, &occupied, self.size);
@@ -189,6 +239,23 @@ impl Figure for LineChart {
                         + PathElement::new(c, g.line)
                         + Polygon::new(g.marker, g.marker_style)
                 });
+            // Error bars first, so the markers sit on top of them.
+            let thin = colour.stroke_width(2);
+            for &(u, lo, hi) in &bars[i] {
+                let cap = || PathElement::new(vec![(-ERROR_CAP, 0), (ERROR_CAP, 0)], thin);
+                chart
+                    .draw_series([
+                        EmptyElement::at((u, lo)) + cap(),
+                        EmptyElement::at((u, hi)) + cap(),
+                    ])
+                    .map_err(plot_err)?;
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        vec![(u, lo), (u, hi)],
+                        thin,
+                    )))
+                    .map_err(plot_err)?;
+            }
             for run in &runs[i] {
                 match style {
                     SeriesStyle::Line | SeriesStyle::LinePoints => {
@@ -216,6 +283,24 @@ impl Figure for LineChart {
                 }
             }
         }
+        if any_bars {
+            // The legend entry that says what the bars are: a grey bar.
+            let grey = RGBColor(90, 90, 90).stroke_width(2);
+            chart
+                .draw_series(Vec::<PathElement<(f64, f64)>>::new())
+                .map_err(plot_err)?
+                .label(self.error_label.clone())
+                .legend(move |at| {
+                    let (c, h, w) = (22, 12, ERROR_CAP);
+                    EmptyElement::at(at)
+                        + PathElement::new(vec![(c, -h), (c, h)], grey)
+                        + PathElement::new(vec![(c - w, -h), (c + w, -h)], grey)
+                        + PathElement::new(vec![(c - w, h), (c + w, h)], grey)
+                });
+        }
         draw_legend(&mut chart, legend)
     }
 }
+
+/// Half the width of an error bar's end caps, in pixels.
+const ERROR_CAP: i32 = 7;

@@ -20,6 +20,18 @@
 //!   axis with no positive value at all is an error, never a panic.
 //! - Files are rendered fully in memory and then written atomically, so a
 //!   failure never leaves half a figure behind.
+//! - Titles, axis labels and captions always fit their space: each is
+//!   measured in the bundled font ([`fit_text`]) and set smaller, down to
+//!   [`MIN_TEXT_PX`], when it would be wider than the room it has (the
+//!   canvas width for a title, the plot's width or height for an axis
+//!   label). Text that does not fit even then is an error naming the
+//!   figure and the text, never a clipped image; shorten it. As a last
+//!   guard, a figure with ink in the canvas's outermost pixels (something
+//!   drawn across the edge) is an error too.
+//! - Timing series may carry error bars ([`Series::errors`]): a vertical
+//!   bar from low to high at each point, with one legend entry saying what
+//!   the bars are (`crate::experiment::figures` draws the min–max spread
+//!   over a run's timed repeats this way).
 //!
 //! Layout: this file holds what every figure shares (the bundled font, the
 //! text sizes, the series palette, the scalar colour maps and the writing
@@ -86,6 +98,11 @@ const TICK_PX: f64 = 26.0;
 const LEGEND_PX: f64 = 26.0;
 const CAPTION_PX: f64 = 28.0;
 
+/// The smallest size, in pixels, a title or axis label is shrunk to so
+/// that it fits: two thirds of the tick labels' size, still legible when a
+/// 1200 px figure is shown at the width of a book's text column.
+pub const MIN_TEXT_PX: f64 = 18.0;
+
 const LINE_WIDTH: u32 = 3;
 const MARKER_RADIUS: i32 = 8;
 
@@ -104,6 +121,42 @@ fn ensure_font() -> anyhow::Result<()> {
 /// The bundled font at `px` pixels, in black.
 fn font(px: f64) -> TextStyle<'static> {
     (FONT_FAMILY, px).into_font().color(&BLACK)
+}
+
+/// The width in pixels of `text` set in the bundled font at `px` (what the
+/// PNG shows; an SVG viewer may substitute a font of similar width).
+pub fn text_width(text: &str, px: f64) -> anyhow::Result<f64> {
+    ensure_font()?;
+    let (w, _) = font(px)
+        .font
+        .box_size(text)
+        .map_err(|e| anyhow!("cannot measure the text \"{text}\": {e:?}"))?;
+    Ok(f64::from(w))
+}
+
+/// The size at which `text` (the figure's `what`: "title", "x axis
+/// label"…) fits in `room` pixels: `px` when it fits there, otherwise the
+/// largest whole size down to [`MIN_TEXT_PX`] that fits. An error when the
+/// text is wider than `room` even at [`MIN_TEXT_PX`].
+pub fn fit_text(what: &str, text: &str, px: f64, room: f64) -> anyhow::Result<f64> {
+    let w = text_width(text, px)?;
+    if w <= room {
+        return Ok(px);
+    }
+    // Width grows with size; start from the proportional guess and step
+    // down past rounding.
+    let mut size = (px * room / w).floor().min(px - 1.0);
+    while size >= MIN_TEXT_PX {
+        if text_width(text, size)? <= room {
+            return Ok(size);
+        }
+        size -= 1.0;
+    }
+    let at_min = text_width(text, MIN_TEXT_PX)?;
+    Err(anyhow!(
+        "the {what} \"{text}\" does not fit: {at_min:.0} px wide at the smallest \
+         text size ({MIN_TEXT_PX} px), {room:.0} px available; shorten it"
+    ))
 }
 
 /// plotters' errors are generic over the backend; keep only their message.
@@ -242,6 +295,7 @@ fn save_figure<F: Figure>(fig: &F, stem: &Path) -> anyhow::Result<()> {
         fig.draw(&root)?;
         root.present().map_err(plot_err)?;
     }
+    check_edges(&pixels, w, h)?;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
@@ -261,6 +315,47 @@ fn save_figure<F: Figure>(fig: &F, stem: &Path) -> anyhow::Result<()> {
         std::fs::write(tmp, svg.as_bytes())
             .with_context(|| format!("{}: cannot write SVG", svg_path.display()))
     })
+}
+
+/// Every figure leaves a white margin at the canvas edge; ink in the
+/// outermost pixels means something drawn (a title, a rotated axis label)
+/// runs off the canvas and is clipped. An error naming the edge.
+fn check_edges(rgb: &[u8], w: u32, h: u32) -> anyhow::Result<()> {
+    let (w, h) = (w as usize, h as usize);
+    let ink = |x: usize, y: usize| {
+        rgb[3 * (y * w + x)..3 * (y * w + x) + 3]
+            .iter()
+            .any(|&c| c < 200)
+    };
+    let edges = [
+        ("left", (0..h).any(|y| ink(0, y))),
+        ("right", (0..h).any(|y| ink(w - 1, y))),
+        ("top", (0..w).any(|x| ink(x, 0))),
+        ("bottom", (0..w).any(|x| ink(x, h - 1))),
+    ];
+    match edges.iter().find(|e| e.1) {
+        Some((edge, _)) => Err(anyhow!(
+            "something is drawn across the {edge} edge of the canvas and clipped \
+             (a title or label too long for its place?)"
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Draw `fig` into a throw-away bitmap: every check drawing makes (text
+/// that does not fit, a log axis without positive data) without writing
+/// a file.
+fn check_figure<F: Figure>(fig: &F) -> anyhow::Result<()> {
+    ensure_font()?;
+    let (w, h) = fig.size();
+    let mut pixels = vec![255u8; w as usize * h as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        fig.draw(&root)?;
+        root.present().map_err(plot_err)?;
+    }
+    check_edges(&pixels, w, h)
 }
 
 /// Blit an RGB buffer at an absolute pixel position of `root` (heatmap
@@ -284,6 +379,19 @@ fn draw_bitmap<DB: DrawingBackend>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ink_at_the_canvas_edge_is_an_error() {
+        let (w, h) = (20u32, 10u32);
+        let mut px = vec![255u8; (w * h * 3) as usize];
+        assert!(check_edges(&px, w, h).is_ok());
+        // A dark pixel inside is fine; one on the left edge is clipped text.
+        px[3 * (5 * w as usize + 5)] = 0;
+        assert!(check_edges(&px, w, h).is_ok());
+        px[3 * (5 * w as usize)] = 0;
+        let err = check_edges(&px, w, h).unwrap_err().to_string();
+        assert!(err.contains("left edge"), "{err}");
+    }
 
     #[test]
     fn palettes_hit_their_published_ends() {
