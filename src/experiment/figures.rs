@@ -585,7 +585,15 @@ impl<'a> Data<'a> {
             self.title(),
             spec.x_label.clone().unwrap_or_else(|| spec.x.clone()),
             spec.y_label.clone().unwrap_or_else(|| spec.y.join(", ")),
-            cats.clone(),
+            // `series_labels` also names a bar chart's categories.
+            cats.iter()
+                .map(|c| {
+                    spec.series_labels
+                        .get(c)
+                        .cloned()
+                        .unwrap_or_else(|| c.clone())
+                })
+                .collect(),
         );
         chart.y_scale = y_scale;
         chart.legend = spec.legend;

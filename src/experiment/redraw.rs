@@ -104,11 +104,18 @@ pub fn redraw(
             plan.columns.join(",")
         );
     }
-    let runs: std::collections::HashSet<Vec<String>> =
-        plan.runs.iter().map(|r| plan.key(r)).collect();
+    // A row belongs to a run when their keys agree wherever the plan has a
+    // value (a study may fill a parameter column as it runs: the gradient
+    // study's finite-difference step).
+    let keys: Vec<Vec<String>> = plan.runs.iter().map(|r| plan.key(r)).collect();
     let key_len = 1 + plan.param_columns.len();
     for (i, row) in table.rows.iter().enumerate() {
-        if !runs.contains(&row[..key_len]) {
+        let known = keys.iter().any(|k| {
+            k.iter()
+                .zip(&row[..key_len])
+                .all(|(p, r)| p.is_empty() || p == r)
+        });
+        if !known {
             bail!(
                 "{}:{}: this row is not a run of the manifest ({}); was a sweep changed?",
                 dir.join(DATA_FILE).display(),

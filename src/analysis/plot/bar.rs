@@ -4,7 +4,9 @@
 
 use super::axis::{to_plot, Axis, Scale};
 use super::chart::{build_chart, draw_legend, place_legend, LegendPosition};
-use super::{check_figure, plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE};
+use super::{
+    check_figure, fit_text, plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE, TICK_PX,
+};
 use anyhow::{ensure, Context};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -157,6 +159,14 @@ impl Figure for BarChart {
                 String::new()
             }
         };
+        // Category names get the tick size at which the widest fits its
+        // slot (an error below the smallest size: relabel it in the manifest).
+        let plot_w = f64::from(self.size.0) - 2.0 * 28.0 - 150.0;
+        let slot = plot_w / n_cat.max(1) as f64 - 8.0;
+        let mut x_tick_px = TICK_PX;
+        for c in &self.categories {
+            x_tick_px = x_tick_px.min(fit_text("bar label", c, TICK_PX, slot)?);
+        }
         let mut chart = build_chart(
             root,
             &self.title,
@@ -165,6 +175,7 @@ impl Figure for BarChart {
             &self.x_label,
             &self.y_label,
             &x_fmt,
+            x_tick_px,
         )?;
         for (j, s) in self.series.iter().enumerate() {
             let colour = rgb(series_colour(j));

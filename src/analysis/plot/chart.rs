@@ -171,6 +171,7 @@ pub(super) fn build_chart<'a, DB: DrawingBackend>(
     x_label: &str,
     y_label: &str,
     x_fmt: &dyn Fn(&f64) -> String,
+    x_tick_px: f64,
 ) -> anyhow::Result<Chart2d<'a, DB>> {
     let (width, _) = root.dim_in_pixel();
     let title_px = fit_text("title", title, TITLE_PX, f64::from(width) - 2.0 * 28.0)?;
@@ -193,6 +194,7 @@ pub(super) fn build_chart<'a, DB: DrawingBackend>(
         .x_desc(x_label)
         .y_desc(y_label)
         .label_style(font(TICK_PX))
+        .x_label_style(font(x_tick_px))
         .axis_desc_style(font(desc_px))
         .x_label_formatter(x_fmt)
         .y_label_formatter(&y_fmt)

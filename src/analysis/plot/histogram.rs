@@ -5,7 +5,7 @@
 
 use super::axis::{to_plot, Axis, Scale};
 use super::chart::build_chart;
-use super::{plot_err, rgb, save_figure, Figure, CHART_SIZE, OKABE_ITO};
+use super::{plot_err, rgb, save_figure, Figure, CHART_SIZE, OKABE_ITO, TICK_PX};
 use anyhow::{ensure, Context};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -123,6 +123,7 @@ impl Figure for Histogram {
             &self.x_label,
             &self.y_label,
             &x_fmt,
+            TICK_PX,
         )?;
         let base = match self.y_scale {
             Scale::Linear => 0.0,

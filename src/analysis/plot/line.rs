@@ -9,7 +9,7 @@ use super::chart::{
 };
 use super::{
     check_figure, plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE, LINE_WIDTH,
-    MARKER_RADIUS,
+    MARKER_RADIUS, TICK_PX,
 };
 use anyhow::{anyhow, Context};
 use plotters::coord::Shift;
@@ -218,6 +218,7 @@ impl Figure for LineChart {
             &self.x_label,
             &self.y_label,
             &x_fmt,
+            TICK_PX,
         )?;
         for &i in &shown {
             let s = &self.series[i];

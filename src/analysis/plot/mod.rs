@@ -94,7 +94,7 @@ pub const CHART_SIZE: (u32, u32) = (1200, 800);
 // figure is shrunk to a single column of a paper (about a third).
 const TITLE_PX: f64 = 40.0;
 const AXIS_DESC_PX: f64 = 32.0;
-const TICK_PX: f64 = 26.0;
+pub(crate) const TICK_PX: f64 = 26.0;
 const LEGEND_PX: f64 = 26.0;
 const CAPTION_PX: f64 = 28.0;
 
