@@ -3,7 +3,7 @@
 //! the frame and legend come from [`super::chart`].
 
 use super::axis::{to_plot, Axis, Scale};
-use super::chart::{build_chart, draw_legend, place_legend, LegendPosition};
+use super::chart::{build_chart, draw_legend, place_legend, LegendPosition, XTicks};
 use super::{
     check_figure, fit_text, plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE, TICK_PX,
 };
@@ -174,8 +174,10 @@ impl Figure for BarChart {
             &y,
             &self.x_label,
             &self.y_label,
-            &x_fmt,
-            x_tick_px,
+            XTicks {
+                format: &x_fmt,
+                px: x_tick_px,
+            },
         )?;
         for (j, s) in self.series.iter().enumerate() {
             let colour = rgb(series_colour(j));

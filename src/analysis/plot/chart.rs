@@ -162,6 +162,14 @@ pub(super) fn draw_legend<'a, DB: DrawingBackend + 'a>(
 /// A plotters chart on our axes.
 pub(super) type Chart2d<'a, DB> = ChartContext<'a, DB, Cartesian2d<AxisCoord, AxisCoord>>;
 
+/// The x axis's tick labels: their text and size.
+pub(super) struct XTicks<'f> {
+    /// The label of a tick at a plot-space x.
+    pub format: &'f dyn Fn(&f64) -> String,
+    /// Text size in pixels.
+    pub px: f64,
+}
+
 /// The common frame of every x–y chart: caption, axes, ticks, grid.
 pub(super) fn build_chart<'a, DB: DrawingBackend>(
     root: &'a DrawingArea<DB, Shift>,
@@ -170,8 +178,7 @@ pub(super) fn build_chart<'a, DB: DrawingBackend>(
     y: &Axis,
     x_label: &str,
     y_label: &str,
-    x_fmt: &dyn Fn(&f64) -> String,
-    x_tick_px: f64,
+    x_ticks: XTicks<'_>,
 ) -> anyhow::Result<Chart2d<'a, DB>> {
     let (width, _) = root.dim_in_pixel();
     let title_px = fit_text("title", title, TITLE_PX, f64::from(width) - 2.0 * 28.0)?;
@@ -194,9 +201,9 @@ pub(super) fn build_chart<'a, DB: DrawingBackend>(
         .x_desc(x_label)
         .y_desc(y_label)
         .label_style(font(TICK_PX))
-        .x_label_style(font(x_tick_px))
+        .x_label_style(font(x_ticks.px))
         .axis_desc_style(font(desc_px))
-        .x_label_formatter(x_fmt)
+        .x_label_formatter(x_ticks.format)
         .y_label_formatter(&y_fmt)
         .bold_line_style(RGBColor(205, 205, 205).stroke_width(1))
         .light_line_style(RGBColor(238, 238, 238).stroke_width(1))

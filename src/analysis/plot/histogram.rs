@@ -4,7 +4,7 @@
 //! [`super::chart`].
 
 use super::axis::{to_plot, Axis, Scale};
-use super::chart::build_chart;
+use super::chart::{build_chart, XTicks};
 use super::{plot_err, rgb, save_figure, Figure, CHART_SIZE, OKABE_ITO, TICK_PX};
 use anyhow::{ensure, Context};
 use plotters::coord::Shift;
@@ -122,8 +122,10 @@ impl Figure for Histogram {
             &y,
             &self.x_label,
             &self.y_label,
-            &x_fmt,
-            TICK_PX,
+            XTicks {
+                format: &x_fmt,
+                px: TICK_PX,
+            },
         )?;
         let base = match self.y_scale {
             Scale::Linear => 0.0,

@@ -5,7 +5,7 @@
 use super::axis::{to_plot, Axis, Scale};
 use super::chart::{
     build_chart, draw_legend, marker_polygon, place_legend, sample_polyline, LegendGlyph,
-    LegendPosition, SeriesStyle, MARKERS,
+    LegendPosition, SeriesStyle, XTicks, MARKERS,
 };
 use super::{
     check_figure, plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE, LINE_WIDTH,
@@ -217,8 +217,10 @@ impl Figure for LineChart {
             &y,
             &self.x_label,
             &self.y_label,
-            &x_fmt,
-            TICK_PX,
+            XTicks {
+                format: &x_fmt,
+                px: TICK_PX,
+            },
         )?;
         for &i in &shown {
             let s = &self.series[i];
