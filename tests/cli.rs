@@ -227,10 +227,15 @@ fn bad_arguments_fail_cleanly() {
         assert!(!png.exists(), "{bad:?} left an output");
         assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
     }
-    // Unwritable output directory.
-    let o = raylab(&["render", s, "-o", "/no/such/dir/out.png"]);
+    // A missing output folder is made; one that cannot be (its parent is a
+    // file, which stops even root) is an error naming the output.
+    let nested = dir.path().join("new/folder/out.png");
+    let o = raylab(&["render", s, "-o", nested.to_str().unwrap()]);
+    assert!(o.status.success() && nested.is_file(), "{}", stderr(&o));
+    let blocked = scene.join("out.png");
+    let o = raylab(&["render", s, "-o", blocked.to_str().unwrap()]);
     assert!(
-        !o.status.success() && stderr(&o).contains("/no/such/dir/out.png"),
+        !o.status.success() && stderr(&o).contains(blocked.to_str().unwrap()),
         "{}",
         stderr(&o)
     );

@@ -118,8 +118,13 @@ pub fn write_atomically(
     let tmp = path.with_file_name(tmp_name);
     // `-o out/run-3/image.png` makes `out/run-3/` as a shell user expects.
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)
-            .map_err(|e| anyhow::anyhow!("{}: cannot create the folder: {e}", parent.display()))?;
+        std::fs::create_dir_all(parent).map_err(|e| {
+            anyhow::anyhow!(
+                "{}: cannot create its folder {}: {e}",
+                path.display(),
+                parent.display()
+            )
+        })?;
     }
     #[cfg(unix)]
     let _pending = interrupt::pending(&tmp);
