@@ -440,7 +440,7 @@ def spans(text):
     return maths, code
 
 
-def measure(args, raylab, where):
+def measure(args, raylab):
     output = run_command(args, raylab)
     timed = re.search(r"\btime\b|Mrays/s|\d s\b", output)
     note = ("Counts are exact: yours will be these. Times depend on the machine."
@@ -498,7 +498,7 @@ def process(content, path, raylab, runs):
         kind, body = m.group(1), " ".join(m.group(2).split())
         try:
             if kind == "measure":
-                out = measure(body, raylab, where)
+                out = measure(body, raylab)
                 return out.replace("](getting-started.md)", f"]({prefix}getting-started.md)")
             if kind == "figure":
                 return figure(body, runs, prefix, used)
