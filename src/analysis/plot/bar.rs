@@ -3,7 +3,7 @@
 //! the frame and legend come from [`super::chart`].
 
 use super::axis::{to_plot, Axis, Scale};
-use super::chart::{build_chart, draw_legend, place_legend, LegendPosition, XTicks};
+use super::chart::{build_chart, draw_legend, place_legend, plot_width, LegendPosition, XTicks};
 use super::{
     check_figure, fit_text, plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE, TICK_PX,
 };
@@ -161,8 +161,7 @@ impl Figure for BarChart {
         };
         // Category names get the tick size at which the widest fits its
         // slot (an error below the smallest size: relabel it in the manifest).
-        let plot_w = f64::from(self.size.0) - 2.0 * 28.0 - 150.0;
-        let slot = plot_w / n_cat.max(1) as f64 - 8.0;
+        let slot = plot_width(self.size.0) / n_cat.max(1) as f64 - 8.0;
         let mut x_tick_px = TICK_PX;
         for c in &self.categories {
             x_tick_px = x_tick_px.min(fit_text("bar label", c, TICK_PX, slot)?);

@@ -170,6 +170,17 @@ pub(super) struct XTicks<'f> {
     pub px: f64,
 }
 
+/// Margin around a chart and the room of its axis labels, in pixels.
+const MARGIN: u32 = 28;
+const X_LABEL_AREA: u32 = 96;
+const Y_LABEL_AREA: u32 = 150;
+
+/// Width in pixels of the plot area [`build_chart`] leaves on a canvas
+/// `width` wide.
+pub(super) fn plot_width(width: u32) -> f64 {
+    (f64::from(width) - f64::from(2 * MARGIN + Y_LABEL_AREA)).max(1.0)
+}
+
 /// The common frame of every x–y chart: caption, axes, ticks, grid.
 pub(super) fn build_chart<'a, DB: DrawingBackend>(
     root: &'a DrawingArea<DB, Shift>,
@@ -181,12 +192,17 @@ pub(super) fn build_chart<'a, DB: DrawingBackend>(
     x_ticks: XTicks<'_>,
 ) -> anyhow::Result<Chart2d<'a, DB>> {
     let (width, _) = root.dim_in_pixel();
-    let title_px = fit_text("title", title, TITLE_PX, f64::from(width) - 2.0 * 28.0)?;
+    let title_px = fit_text(
+        "title",
+        title,
+        TITLE_PX,
+        f64::from(width.saturating_sub(2 * MARGIN)),
+    )?;
     let mut chart = ChartBuilder::on(root)
         .caption(title, font(title_px))
-        .margin(28)
-        .x_label_area_size(96)
-        .y_label_area_size(150)
+        .margin(MARGIN)
+        .x_label_area_size(X_LABEL_AREA)
+        .y_label_area_size(Y_LABEL_AREA)
         .build_cartesian_2d(x.coord(), y.coord())
         .map_err(plot_err)?;
     // Axis labels run along the plot area (the y label turned upright);
@@ -234,8 +250,9 @@ pub(super) fn place_legend(
         return (requested, 0.0);
     }
     // Plot area of `build_chart`: canvas less margins, label areas, caption.
-    let plot_w = (f64::from(size.0) - 2.0 * 28.0 - 150.0).max(1.0);
-    let plot_h = (f64::from(size.1) - 2.0 * 28.0 - 96.0 - 1.5 * TITLE_PX).max(1.0);
+    let plot_w = plot_width(size.0);
+    let plot_h =
+        (f64::from(size.1) - f64::from(2 * MARGIN + X_LABEL_AREA) - 1.5 * TITLE_PX).max(1.0);
     let chars = labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as f64;
     // Box plus its 16 px margin from the plot edge, plus 12 px of air.
     let box_w = (56.0 + 0.6 * LEGEND_PX * chars + 40.0 + 28.0) / plot_w;
