@@ -21,6 +21,8 @@ pub mod diff;
 pub mod experiment;
 pub mod film;
 pub mod gi;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod integrator;
 pub mod io;
 pub mod light;

@@ -126,6 +126,12 @@ enum Command {
         /// Render threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// `cpu` (default) or `gpu`: where the render with counters runs.
+        /// On the GPU each invocation counts its own pixel's rays, node
+        /// visits and tests (no atomics), under the CPU's conventions; the
+        /// per-camera-ray distributions are traced on the CPU.
+        #[arg(long, value_parser = report::render::Device::parse, default_value = "cpu")]
+        device: report::render::Device,
     },
     /// Check raylab's intersections against Embree 4 as the oracle.
     ///
@@ -398,6 +404,12 @@ struct RenderArgs {
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
+    /// `cpu` (default) or `gpu`: the GPU port of the Whitted integrator
+    /// (WGSL through wgpu: Vulkan, Metal or DX12; Mesa's lavapipe where
+    /// there is no GPU). Prints the adapter and the upload, shader-build,
+    /// kernel and readback times.
+    #[arg(long, value_parser = report::render::Device::parse, default_value = "cpu")]
+    device: report::render::Device,
 }
 
 #[derive(clap::Args, Debug)]
@@ -465,6 +477,7 @@ fn main() -> ExitCode {
             height,
             out,
             threads,
+            device,
         } => {
             let opts = report::StatsOptions {
                 scene,
@@ -473,6 +486,7 @@ fn main() -> ExitCode {
                 height,
                 out,
                 threads,
+                device,
             };
             report::stats::run(&opts, &mut std::io::stdout().lock()).map(|_| ())
         }
@@ -499,6 +513,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         spp_map: args.spp_map,
         threads: args.common.threads,
         progress: !args.quiet,
+        device: args.device,
     };
     let report = report::RenderReport::run(&opts)?;
     if args.quiet {

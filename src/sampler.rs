@@ -150,6 +150,13 @@ fn wrap(x: f32) -> f32 {
     }
 }
 
+/// Point `index` of the 2D Halton sequence before its per-pixel rotation:
+/// the radical inverses of `index + 1` in bases 2 and 3. The GPU port
+/// reads these from a table made here, so both devices use the same bits.
+pub fn halton_point(index: u32) -> Vec2 {
+    Vec2::new(radical_inverse(index + 1, 2), radical_inverse(index + 1, 3))
+}
+
 impl Sampler {
     /// Samples per pixel.
     pub fn spp(&self) -> u32 {
@@ -212,10 +219,8 @@ impl Sampler {
             Sampler::Halton { .. } => {
                 let mut r = stream(px, py, PIXEL_KEY, seed);
                 let shift = Vec2::new(r.next_f32(), r.next_f32());
-                Vec2::new(
-                    wrap(radical_inverse(index + 1, 2) + shift.x),
-                    wrap(radical_inverse(index + 1, 3) + shift.y),
-                )
+                let h = halton_point(index);
+                Vec2::new(wrap(h.x + shift.x), wrap(h.y + shift.y))
             }
             Sampler::Sobol { .. } => {
                 let mut r = stream(px, py, PIXEL_KEY, seed);

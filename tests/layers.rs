@@ -19,7 +19,7 @@ const LAYERS: &[&[&str]] = &[
     &["lighting", "workload"],
     &["gi"],
     &["integrator"],
-    &["io"],
+    &["io", "gpu"],
     &["analysis", "diff"],
     &["validate"],
     &["experiment"],

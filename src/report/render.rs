@@ -39,6 +39,57 @@ pub struct RenderOptions {
     pub threads: Option<usize>,
     /// Show a progress bar on a terminal ([`super::progress`]).
     pub progress: bool,
+    /// Where to render: the CPU, or the GPU port ([`crate::gpu`]).
+    pub device: Device,
+}
+
+/// Where a render runs (`--device cpu|gpu`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Device {
+    #[default]
+    Cpu,
+    /// The WGSL port of the Whitted integrator (the `gpu` feature).
+    Gpu,
+}
+
+impl Device {
+    /// Parse `cpu` or `gpu`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "cpu" => Ok(Device::Cpu),
+            "gpu" => Ok(Device::Gpu),
+            _ => Err(format!("unknown device `{s}` (expected `cpu` or `gpu`)")),
+        }
+    }
+}
+
+/// Render `scene` on the GPU, with counters when `counters` is set: the
+/// adapter's description and the render. The GPU port is Whitted's
+/// integrator only.
+#[cfg(feature = "gpu")]
+pub fn gpu_render(
+    scene: &crate::scene::Scene,
+    integrator: &IntegratorKind,
+    counters: bool,
+) -> Result<(String, crate::gpu::GpuRender)> {
+    if *integrator != IntegratorKind::Whitted {
+        anyhow::bail!(
+            "the GPU port renders the Whitted integrator only; `{}` runs with --device cpu",
+            integrator.name()
+        );
+    }
+    let gpu = crate::gpu::Gpu::new().map_err(anyhow::Error::msg)?;
+    let out = gpu.render(scene, counters).map_err(anyhow::Error::msg)?;
+    Ok((gpu.describe(), out))
+}
+
+#[cfg(not(feature = "gpu"))]
+pub fn gpu_render(
+    _: &crate::scene::Scene,
+    _: &IntegratorKind,
+    _: bool,
+) -> Result<(String, std::convert::Infallible)> {
+    anyhow::bail!("this raylab was built without the `gpu` feature: --device gpu is not available")
 }
 
 /// The flood-fill cache of a render, as the report shows it.
@@ -103,6 +154,9 @@ pub struct RenderReport {
     pub variance: Option<(f64, f64)>,
     /// The reference image and the errors against it.
     pub error: Option<(PathBuf, ImageMetrics)>,
+    /// GPU renders: the adapter, and where the time went.
+    #[cfg(feature = "gpu")]
+    pub gpu: Option<(String, crate::gpu::GpuTimes)>,
 }
 
 impl RenderReport {
@@ -137,11 +191,31 @@ impl RenderReport {
             .prepare(&scene)
             .map_err(|e| anyhow::anyhow!("{}: {e}", opts.scene.display()))?;
         let t1 = Instant::now();
-        let watch = super::progress::Watch::start("render", opts.progress);
-        let (film, RayCounts(counts)) = prepared
-            .frame::<RayCounts>(&scene, opts.threads)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", opts.scene.display()))?;
-        drop(watch);
+        #[cfg(feature = "gpu")]
+        let mut gpu = None;
+        let (film, counts) = match opts.device {
+            Device::Cpu => {
+                let watch = super::progress::Watch::start("render", opts.progress);
+                let (film, RayCounts(counts)) =
+                    prepared
+                        .frame::<RayCounts>(&scene, opts.threads)
+                        .map_err(|e| anyhow::anyhow!("{}: {e}", opts.scene.display()))?;
+                drop(watch);
+                (film, counts)
+            }
+            Device::Gpu => {
+                let (adapter, out) = gpu_render(&scene, &integrator, true)
+                    .with_context(|| format!("{}", opts.scene.display()))?;
+                #[cfg(feature = "gpu")]
+                {
+                    let total = out.total();
+                    gpu = Some((adapter, out.times));
+                    (out.film, total)
+                }
+                #[cfg(not(feature = "gpu"))]
+                match (adapter, out) {}
+            }
+        };
         let render_s = t1.elapsed().as_secs_f64();
         let image = film.image();
         let error = match &reference {
@@ -204,7 +278,20 @@ impl RenderReport {
             variance: (!sampler.is_adaptive())
                 .then(|| (film.mean_sample_variance(), film.mean_variance_of_mean())),
             error,
+            #[cfg(feature = "gpu")]
+            gpu,
         })
+    }
+}
+
+impl RenderReport {
+    /// `N threads` on the CPU, `GPU` on the GPU.
+    fn device_name(&self) -> String {
+        #[cfg(feature = "gpu")]
+        if self.gpu.is_some() {
+            return "GPU".into();
+        }
+        format!("{} threads", self.threads)
     }
 }
 
@@ -215,13 +302,13 @@ impl fmt::Display for RenderReport {
         writeln!(f, "scene      {}", self.scene.display())?;
         writeln!(
             f,
-            "image      {}×{}  {} spp ({})  accel {}  {} threads  integrator {}",
+            "image      {}×{}  {} spp ({})  accel {}  {}  integrator {}",
             self.width,
             self.height,
             self.sampler.spp(),
             self.sampler.name(),
             self.accel,
-            self.threads,
+            self.device_name(),
             self.integrator
         )?;
         if let Some((mean, max)) = self.adaptive_spp {
@@ -265,6 +352,25 @@ impl fmt::Display for RenderReport {
             self.render_s,
             c.rays() as f64 / self.render_s / 1e6
         )?;
+        #[cfg(feature = "gpu")]
+        if let Some((adapter, t)) = &self.gpu {
+            writeln!(f, "device     GPU: {adapter}")?;
+            writeln!(
+                f,
+                "gpu time   upload {:.4} s, shader build {:.4} s, kernel {:.4} s ({}), readback \
+                 {:.4} s; {:.2} Mrays/s in the kernel (counters on)",
+                t.upload,
+                t.compile,
+                t.kernel,
+                if t.timestamped {
+                    "GPU timestamps"
+                } else {
+                    "wall time of a synchronised submit"
+                },
+                t.readback,
+                c.rays() as f64 / t.kernel / 1e6
+            )?;
+        }
         if let Some((per_sample, of_mean)) = self.variance {
             writeln!(
                 f,

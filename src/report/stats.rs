@@ -49,6 +49,9 @@ pub struct StatsOptions {
     pub out: Option<PathBuf>,
     /// Render threads; `None` means all cores.
     pub threads: Option<usize>,
+    /// Where the render with counters runs: on the GPU each invocation
+    /// counts its own pixel ([`crate::gpu`]).
+    pub device: super::render::Device,
 }
 
 /// Summary of a sample of non-negative counts: the mean and nearest-rank
@@ -213,7 +216,13 @@ pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>> {
             .map_err(|e| anyhow::anyhow!("building {kind}: {e}"))?;
         let build_seconds = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let (_film, totals, pixels) = render_with_costs(&scene, &Whitted, opts.threads);
+        let (totals, pixels) = match opts.device {
+            super::render::Device::Cpu => {
+                let (_film, totals, pixels) = render_with_costs(&scene, &Whitted, opts.threads);
+                (totals, pixels)
+            }
+            super::render::Device::Gpu => gpu_costs(&scene, w)?,
+        };
         let render_seconds = t.elapsed().as_secs_f64();
         let rays = camera_ray_costs(&scene);
         let mut vt: Vec<u64> = rays.iter().map(Counters::bounding_volume_tests).collect();
@@ -234,6 +243,21 @@ pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>> {
     }
     writeln!(w, "Heatmaps (PNG + SVG) in {}", out_dir.display())?;
     Ok(reports)
+}
+
+/// The render with counters on the GPU: totals and per-pixel counters,
+/// after a line naming the adapter.
+#[cfg(feature = "gpu")]
+fn gpu_costs(scene: &Scene, w: &mut dyn Write) -> Result<(Counters, Vec<Counters>)> {
+    let (adapter, out) =
+        super::render::gpu_render(scene, &crate::integrator::IntegratorKind::Whitted, true)?;
+    writeln!(w, "GPU: {adapter}, kernel {:.4} s", out.times.kernel)?;
+    Ok((out.total(), out.pixel_counters))
+}
+
+#[cfg(not(feature = "gpu"))]
+fn gpu_costs(scene: &Scene, _: &mut dyn Write) -> Result<(Counters, Vec<Counters>)> {
+    match super::render::gpu_render(scene, &crate::integrator::IntegratorKind::Whitted, true)?.1 {}
 }
 
 /// Reads one cost out of a pixel's counters.

@@ -31,7 +31,7 @@ pub const FIT_PAD: f32 = 1.0 + 1.0e-6;
 /// and carries an absolute error of about 8ε·|o − c| (ε = 2⁻²⁴); padding the
 /// radius by 32ε·(|o − c| + r) keeps the test conservative, including for
 /// tangent rays.
-const QUADRIC_MARGIN: f32 = 32.0 * UNIT_ROUNDOFF;
+pub const QUADRIC_MARGIN: f32 = 32.0 * UNIT_ROUNDOFF;
 
 /// ε = 2⁻²⁴, the largest relative error of one rounded f32 operation.
 const UNIT_ROUNDOFF: f32 = f32::EPSILON * 0.5;

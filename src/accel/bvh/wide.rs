@@ -103,6 +103,23 @@ impl Bvh4 {
         &self.nodes
     }
 
+    /// The box of everything, tested before the root (`None` for an empty
+    /// tree).
+    pub fn root_box(&self) -> Option<Aabb> {
+        self.root_box
+    }
+
+    /// Where traversal starts: (first, count), a wide node's index with
+    /// count 0, or the single leaf's run of primitives.
+    pub fn root(&self) -> (u32, u32) {
+        (self.root.first, self.root.count)
+    }
+
+    /// Primitive indices (into the scene's list) in leaf order.
+    pub fn indices(&self) -> &[u32] {
+        &self.indices
+    }
+
     /// Seconds the build took (binary build plus collapse).
     pub fn build_seconds(&self) -> f64 {
         self.build_seconds
