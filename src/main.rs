@@ -479,6 +479,7 @@ fn main() -> ExitCode {
             threads,
             device,
         } => {
+            quiet_wayland_probe(device);
             let opts = report::StatsOptions {
                 scene,
                 accels: accel,
@@ -503,7 +504,20 @@ fn main() -> ExitCode {
     }
 }
 
+/// Mesa's Vulkan drivers probe for a Wayland display when a device is
+/// created, and libwayland prints "error: XDG_RUNTIME_DIR is invalid or
+/// not set" (several times) when that variable is unset, as on servers and
+/// in CI: noise that reads like raylab's own errors. With the variable set
+/// the probe fails quietly; raylab opens no window, so any folder will do.
+/// Called before the GPU is opened, while this process has one thread.
+fn quiet_wayland_probe(device: report::render::Device) {
+    if device == report::render::Device::Gpu && std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
+}
+
 fn cmd_render(args: RenderArgs) -> Result<()> {
+    quiet_wayland_probe(args.device);
     let opts = report::RenderOptions {
         overrides: args.common.overrides(),
         integrator: args.common.integrator(),

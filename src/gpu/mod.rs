@@ -49,8 +49,8 @@ const SHADER: &str = include_str!("whitted.wgsl");
 /// primitive hit by the first camera ray (+1; 0 for none).
 const COUNT_WORDS: usize = 16;
 
-/// Samples per dispatch at most: bands of rows keep each dispatch short
-/// (a display driver's watchdog, lavapipe's one-thread-per-core scheduling).
+/// Pixels per dispatch at most (each dispatch renders one sample of a band
+/// of rows): short dispatches keep clear of a display driver's watchdog.
 const SAMPLES_PER_DISPATCH: u64 = 1 << 20;
 
 /// A GPU ready to render: the adapter wgpu chose and its device.
@@ -104,6 +104,17 @@ impl Gpu {
     /// The first adapter wgpu finds on Vulkan, Metal or DX12 (a discrete
     /// GPU preferred). With none, an error that says how to get lavapipe.
     pub fn new() -> Result<Self, String> {
+        Self::open(None)
+    }
+
+    /// [`Gpu::new`] with a device that allows storage buffers of at most
+    /// `bytes` (wgpu enforces it): how a test meets a scene too large for
+    /// the adapter without building one of gigabytes.
+    pub fn with_binding_limit(bytes: u64) -> Result<Self, String> {
+        Self::open(Some(bytes))
+    }
+
+    fn open(binding_limit: Option<u64>) -> Result<Self, String> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
             backends: wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12,
             ..wgpu::InstanceDescriptor::new_without_display_handle()
@@ -122,7 +133,10 @@ impl Gpu {
             )
         })?;
         let info = adapter.get_info();
-        let limits = adapter.limits();
+        let mut limits = adapter.limits();
+        if let Some(b) = binding_limit {
+            limits.max_storage_buffer_binding_size = b.min(limits.max_storage_buffer_binding_size);
+        }
         let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let features = if timestamps {
             wgpu::Features::TIMESTAMP_QUERY
@@ -165,6 +179,12 @@ impl Gpu {
             },
             i.device_type
         )
+    }
+
+    /// Whether the shader must count its loop iterations: Mesa's llvmpipe
+    /// (lavapipe) ends an invocation's loops after 65535 iterations in all.
+    fn loop_guard(&self) -> bool {
+        self.info.name.contains("llvmpipe")
     }
 
     /// Whether the adapter is a CPU (lavapipe, WARP, SwiftShader): its
@@ -226,14 +246,22 @@ impl Gpu {
             count_bytes,
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         );
-        // Bands of rows, one uniform block each.
-        let spp = u64::from(packed.params.spp.max(1));
-        let rows_per_band = (SAMPLES_PER_DISPATCH / (w * spp)).clamp(1, h) as u32;
-        let bands: Vec<Params> = (0..scene.camera.height)
-            .step_by(rows_per_band as usize)
-            .map(|row| Params {
+        // Bands of rows, and one sample of every pixel of a band per
+        // dispatch (the shader continues each pixel's sums): one uniform
+        // block each.
+        let rows_per_band = (SAMPLES_PER_DISPATCH / w).clamp(1, h) as u32;
+        let spp = packed.params.spp;
+        let bands: Vec<Params> = (0..spp)
+            .flat_map(|sample| {
+                (0..scene.camera.height)
+                    .step_by(rows_per_band as usize)
+                    .map(move |row| (sample, row))
+            })
+            .map(|(sample, row)| Params {
                 row_offset: row,
                 rows: rows_per_band.min(scene.camera.height - row),
+                sample_first: sample,
+                sample_count: 1,
                 ..packed.params
             })
             .collect();
@@ -263,6 +291,7 @@ impl Gpu {
         // not in the kernel's time.
         let empty = self.uniform(bytemuck::bytes_of(&Params {
             rows: 0,
+            sample_count: 0,
             ..packed.params
         }));
         let mut enc = d.create_command_encoder(&Default::default());
@@ -331,6 +360,16 @@ impl Gpu {
             }
             None => wall,
         };
+        let tripped = film_words.chunks_exact(8).filter(|p| p[7] != 0.0).count();
+        if tripped > 0 {
+            return Err(format!(
+                "{tripped} pixels needed more than 65 000 loop iterations in one shader \
+                 invocation, and {} ends an invocation's loops after 65 535 (its guard against \
+                 endless shaders), which would leave them wrong: use a BVH rather than brute \
+                 force over {} primitives, a lower max_depth, or a hardware GPU",
+                self.info.name, packed.params.n_accel
+            ));
+        }
         let mut film = Film::new(scene.camera.width, scene.camera.height);
         for (px, p) in film.pixels.iter_mut().zip(film_words.chunks_exact(8)) {
             *px = PixelStats {
@@ -359,7 +398,7 @@ impl Gpu {
         max_depth: u32,
         counters: bool,
     ) -> Result<wgpu::ComputePipeline, String> {
-        let source = shader_source(packed.kernel, max_depth, counters);
+        let source = shader_source(packed.kernel, max_depth, counters, self.loop_guard());
         let d = &self.device;
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let desc = wgpu::ShaderModuleDescriptor {
@@ -461,7 +500,7 @@ fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
 }
 
 /// The shader with its kernel constants filled in.
-pub fn shader_source(kernel: Kernel, max_depth: u32, counters: bool) -> String {
+pub fn shader_source(kernel: Kernel, max_depth: u32, counters: bool, loop_guard: bool) -> String {
     let stack = if kernel.accel == 2 {
         3 * crate::accel::bvh::MAX_DEPTH
     } else {
@@ -481,6 +520,7 @@ pub fn shader_source(kernel: Kernel, max_depth: u32, counters: bool) -> String {
         )
         .replace("{{TRAVERSAL_STACK}}", &stack.to_string())
         .replace("{{STATS}}", if counters { "true" } else { "false" })
+        .replace("{{LOOP_GUARD}}", if loop_guard { "true" } else { "false" })
 }
 
 /// The 15 counters of one pixel, in `Counters`' field order.

@@ -11,7 +11,7 @@
 //!   centre, radius; ellipsoid: centre, ·, 1/radii, ·), first, count,
 //!   2 unused (`bvh::Node`);
 //! - 4-wide node (32 words): min x, y, z and max x, y, z of the four
-//!   children (4 lanes each), first[4], count[4], unused lanes' first and
+//!   children (4 lanes each), `first[4]`, `count[4]`, unused lanes' first and
 //!   count set to `u32::MAX` (`bvh::wide::Node4`);
 //! - slot: its `PrimRef`, and separately its scene primitive index;
 //! - triangle (11), sphere (4), ellipsoid (12), plane (6): the `#[repr(C)]`
@@ -81,7 +81,8 @@ pub struct Params {
     pub offset_scale: f32,
     pub quadric_margin: f32,
     pub rows: u32,
-    pub pad: [u32; 2],
+    pub sample_first: u32,
+    pub sample_count: u32,
 }
 
 const _: () = assert!(std::mem::size_of::<Params>() == 256);

@@ -39,12 +39,12 @@ struct Params {
     o_spheres: u32, o_ellipsoids: u32, o_planes: u32, o_prim_object: u32,
     o_meshes: u32, o_faces: u32, o_normals: u32, o_materials: u32,
     o_lights: u32, o_halton: u32, slab_exit_scale: f32, offset_scale: f32,
-    quadric_margin: f32, rows: u32, pad1: u32, pad2: u32,
+    quadric_margin: f32, rows: u32, sample_first: u32, sample_count: u32,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
 @group(0) @binding(1) var<storage, read> scene: array<u32>;
-// Per pixel: mean (3), count, m2 (3), unused.
+// Per pixel: mean (3), count, m2 (3), and 1 where the loop guard tripped.
 @group(0) @binding(2) var<storage, read_write> pixels: array<f32>;
 // Per pixel: the 15 counters of stats::Counters, in its field order, and
 // the primitive first hit by the pixel's first camera ray (+1; 0: none).
@@ -66,6 +66,21 @@ const COUNT_WORDS: u32 = 16u;
 var<private> counters: array<u32, 15>;
 fn count(c: u32) { if STATS { counters[c] += 1u; } }
 fn count_n(c: u32, n: u32) { if STATS { counters[c] += n; } }
+
+// ------------------------------------------------------------ loop guard
+// Mesa's lavapipe (llvmpipe) ends an invocation's loops once they have
+// iterated 65535 times in all (its guard against endless shaders), and
+// the shader then goes on with wrong results. Every loop here ticks this
+// counter once per iteration (LOOP_GUARD is on for lavapipe), and a pixel
+// whose invocation came near the limit is flagged in the film buffer: the
+// host refuses the render rather than return such an image. The host runs
+// one sample per dispatch, which keeps trees far below the limit; brute
+// force (one iteration per primitive and ray) reaches it at a few ten
+// thousand primitives.
+const LOOP_GUARD: bool = {{LOOP_GUARD}};
+const GUARD_LIMIT: u32 = 65000u;
+var<private> guard: u32;
+fn tick() { if LOOP_GUARD { guard += 1u; } }
 
 // ------------------------------------------------ SplitMix64 (math::rng)
 // u64 as (low, high) words.
@@ -110,6 +125,7 @@ fn fraction(bits: u32) -> f32 { return f32(bits >> 8u) * (1.0 / 16777216.0); }
 fn sobol_second(i0: u32) -> u32 {
     var i = i0; var r = 0u; var v = 1u << 31u;
     while i != 0u {
+        tick();
         if (i & 1u) != 0u { r ^= v; }
         i >>= 1u; v ^= v >> 1u;
     }
@@ -316,9 +332,12 @@ fn slot_test(slot: u32, ray: Ray, t_max: f32) -> PrimHit {
 // --------------------------------------------------- slots: closest / any
 struct Found { slot: u32, h: PrimHit }
 const NONE: u32 = 0xffffffffu;
-// brute::closest_of over slots [first, first + n)
+// brute::closest_of over slots [first, first + n), in order. (One slot per
+// iteration: unrolling it to spare lavapipe's loop guard, see `tick`,
+// made the shader eight times longer to compile.)
 fn closest_of(first: u32, n: u32, ray: Ray, t_max: ptr<function, f32>, best: ptr<function, Found>) {
     for (var s = first; s < first + n; s++) {
+        tick();
         let h = slot_test(s, ray, *t_max);
         if h.t >= 0.0 {
             count(C_PRIM_HIT);
@@ -330,6 +349,7 @@ fn closest_of(first: u32, n: u32, ray: Ray, t_max: ptr<function, f32>, best: ptr
 // brute::any_of
 fn any_of(first: u32, n: u32, ray: Ray, t_max: f32) -> bool {
     for (var s = first; s < first + n; s++) {
+        tick();
         if slot_test(s, ray, t_max).t >= 0.0 { count(C_PRIM_HIT); return true; }
     }
     return false;
@@ -342,12 +362,10 @@ fn slab(lo: vec3<f32>, hi: vec3<f32>, ray: Ray, t_max: f32) -> f32 {
     let t1 = (hi - ray.o) * ray.inv;
     var enter = -P.inf;
     var exit = P.inf;
-    for (var a = 0u; a < 3u; a++) {
-        if !(is_nan(t0[a]) || is_nan(t1[a])) {
-            enter = max(enter, min(t0[a], t1[a]));
-            exit = min(exit, max(t0[a], t1[a]));
-        }
-    }
+    // The three axes written out (no loop: see `tick`).
+    if !(is_nan(t0.x) || is_nan(t1.x)) { enter = max(enter, min(t0.x, t1.x)); exit = min(exit, max(t0.x, t1.x)); }
+    if !(is_nan(t0.y) || is_nan(t1.y)) { enter = max(enter, min(t0.y, t1.y)); exit = min(exit, max(t0.y, t1.y)); }
+    if !(is_nan(t0.z) || is_nan(t1.z)) { enter = max(enter, min(t0.z, t1.z)); exit = min(exit, max(t0.z, t1.z)); }
     exit = exit * P.slab_exit_scale;
     if enter <= exit && exit >= 0.0 && enter <= t_max { return max(enter, 0.0); }
     return -1.0;
@@ -403,6 +421,7 @@ fn traverse(ray: Ray, t_max0: f32, any_hit: bool, best: ptr<function, Found>) ->
         leaf = P.root_count;
     }
     loop {
+        tick();
         count(C_NODES);
         var descend = false;
         if ACCEL == 1u {
@@ -442,6 +461,7 @@ fn traverse(ray: Ray, t_max0: f32, any_hit: bool, best: ptr<function, Found>) ->
                 var ht = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
                 var k = 0u;
                 for (var i = 0u; i < 4u; i++) {
+                    tick();
                     if scene[b + 28u + i] == NONE { break; }
                     count(C_BOX);
                     let lo = vec3<f32>(f(b + i), f(b + 4u + i), f(b + 8u + i));
@@ -451,6 +471,7 @@ fn traverse(ray: Ray, t_max0: f32, any_hit: bool, best: ptr<function, Found>) ->
                         // insertion, nearest first; ties keep child order
                         var j = k;
                         while j > 0u && ht[j - 1u] > t {
+                            tick();
                             hn[j] = hn[j - 1u]; hc[j] = hc[j - 1u]; ht[j] = ht[j - 1u];
                             j--;
                         }
@@ -460,6 +481,7 @@ fn traverse(ray: Ray, t_max0: f32, any_hit: bool, best: ptr<function, Found>) ->
                 }
                 if k > 0u {
                     for (var j = k - 1u; j >= 1u; j--) {
+                        tick();
                         stack_node[depth] = hn[j]; stack_t[depth] = ht[j]; stack_count[depth] = hc[j];
                         depth++;
                     }
@@ -471,6 +493,7 @@ fn traverse(ray: Ray, t_max0: f32, any_hit: bool, best: ptr<function, Found>) ->
         // bvh::traverse::pop_live
         var popped = false;
         loop {
+            tick();
             if depth == 0u { break; }
             depth--;
             if stack_t[depth] <= t_max {
@@ -627,6 +650,7 @@ fn phong(m: Material, albedo: vec3<f32>, n: vec3<f32>, l: vec3<f32>, view: vec3<
 fn lights(hit: Hit, m: Material, albedo: vec3<f32>, view: vec3<f32>) -> vec3<f32> {
     var color = vec3<f32>(0.0);
     for (var i = 0u; i < P.n_lights; i++) {
+        tick();
         let b = P.o_lights + 8u * i;
         let position = v3(b);
         let to_light = position - hit.point;
@@ -656,7 +680,10 @@ var<private> media_obj: array<u32, MAX_DEPTH * MEDIA>;
 var<private> media_ior: array<f32, MAX_DEPTH * MEDIA>;
 var<private> cur_obj: array<u32, MEDIA>;
 var<private> cur_ior: array<f32, MEDIA>;
+// The primitive the first camera ray of the pixel hits (+1; 0: none), and
+// whether the ray being traced is that one.
 var<private> first_prim: u32;
+var<private> record_first: bool;
 
 // medium_ior of the current stack with `len` entries
 fn current_ior(len: u32) -> f32 {
@@ -669,20 +696,21 @@ fn trace(camera: Ray) -> vec3<f32> {
     var color = vec3<f32>(0.0);
     var n_pending = 1u;
     pending[0] = Pending(camera.o, 1.0, camera.d, 0u, 1.0, 0u);
-    var primary = true;
     while n_pending > 0u {
+        tick();
         n_pending--;
         let p = pending[n_pending];
         let factor = p.factor;
         // the popped ray's media, into cur_*
         for (var k = 0u; k < p.media_len; k++) {
+            tick();
             cur_obj[k] = media_obj[n_pending * MEDIA + k];
             cur_ior[k] = media_ior[n_pending * MEDIA + k];
         }
         let ray = prepare(p.o, p.d);
         let found = intersect(ray, P.max_distance);
-        if primary {
-            primary = false;
+        if record_first {
+            record_first = false;
             if found.slot != NONE { first_prim = scene[P.o_ids + found.slot] + 1u; }
         }
         if found.slot == NONE { color += P.background * factor; continue; }
@@ -714,9 +742,10 @@ fn trace(camera: Ray) -> vec3<f32> {
                 // MediumStack::left: remove the innermost entry of this object
                 t_len = p.media_len;
                 var at = NONE;
-                for (var k = 0u; k < p.media_len; k++) { if cur_obj[k] == hit.object { at = k; } }
+                for (var k = 0u; k < p.media_len; k++) { tick(); if cur_obj[k] == hit.object { at = k; } }
                 if at != NONE {
                     for (var k = at; k + 1u < p.media_len; k++) {
+                        tick();
                         cur_obj[k] = cur_obj[k + 1u]; cur_ior[k] = cur_ior[k + 1u];
                     }
                     t_len--;
@@ -745,6 +774,7 @@ fn trace(camera: Ray) -> vec3<f32> {
         if refracted {
             let s = n_pending;
             for (var k = 0u; k < t_len; k++) {
+                tick();
                 media_obj[s * MEDIA + k] = cur_obj[k];
                 media_ior[s * MEDIA + k] = cur_ior[k];
             }
@@ -755,30 +785,50 @@ fn trace(camera: Ray) -> vec3<f32> {
     return color;
 }
 
+// One dispatch renders samples [sample_first, sample_first + sample_count)
+// of every pixel of a band of rows, continuing each pixel's Welford sums,
+// counters and first hit from the buffers: the host splits a render into
+// dispatches of one sample (so that one invocation's loops stay short, see
+// `tick`), and the result is the same as one loop over all samples.
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let px = gid.x;
     let py = gid.y + P.row_offset;
     if px >= P.width || gid.y >= P.rows || py >= P.height { return; }
-    for (var c = 0u; c < N_COUNTERS; c++) { counters[c] = 0u; }
-    first_prim = 0u;
+    let pix = py * P.width + px;
+    let fresh = P.sample_first == 0u;
+    guard = 0u;
+    for (var c = 0u; c < N_COUNTERS; c++) {
+        tick();
+        counters[c] = select(counts[COUNT_WORDS * pix + c], 0u, fresh || !STATS);
+    }
+    first_prim = select(counts[COUNT_WORDS * pix + 15u], 0u, fresh || !STATS);
     // film::PixelStats::add (Welford), sample after sample
     var mean = vec3<f32>(0.0);
     var m2 = vec3<f32>(0.0);
-    for (var index = 0u; index < P.spp; index++) {
+    if !fresh {
+        mean = vec3<f32>(pixels[8u * pix], pixels[8u * pix + 1u], pixels[8u * pix + 2u]);
+        m2 = vec3<f32>(pixels[8u * pix + 4u], pixels[8u * pix + 5u], pixels[8u * pix + 6u]);
+    }
+    var flagged = select(pixels[8u * pix + 7u], 0.0, fresh);
+    let end = P.sample_first + P.sample_count;
+    for (var index = P.sample_first; index < end; index++) {
+        tick();
         let off = sample_offset(px, py, index);
         let pos = vec2<f32>(f32(px), f32(py)) + off;
         let ray = camera_ray(pos.x, pos.y);
         count(C_CAMERA);
+        record_first = index == 0u;
         let x = trace(ray);
         let delta = x - mean;
         mean += delta / f32(index + 1u);
         m2 += delta * (x - mean);
     }
-    let pix = py * P.width + px;
+    if LOOP_GUARD && guard >= GUARD_LIMIT { flagged = 1.0; }
     pixels[8u * pix] = mean.x; pixels[8u * pix + 1u] = mean.y; pixels[8u * pix + 2u] = mean.z;
-    pixels[8u * pix + 3u] = f32(P.spp);
+    pixels[8u * pix + 3u] = f32(end);
     pixels[8u * pix + 4u] = m2.x; pixels[8u * pix + 5u] = m2.y; pixels[8u * pix + 6u] = m2.z;
+    pixels[8u * pix + 7u] = flagged;
     if STATS {
         for (var c = 0u; c < N_COUNTERS; c++) { counts[COUNT_WORDS * pix + c] = counters[c]; }
         counts[COUNT_WORDS * pix + 15u] = first_prim;
