@@ -318,6 +318,7 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
         cpu_model: meta::cpu_model(),
         logical_cpus: std::thread::available_parallelism().map_or(1, |n| n.get()),
         threads,
+        device: study.device(),
         optimised: !cfg!(debug_assertions),
         started_utc: meta::utc_iso8601(started),
         finished_utc: None,
