@@ -349,6 +349,7 @@ fn merged_meta(
         cpu_model: cpus.join("; "),
         logical_cpus: records.iter().map(|r| r.logical_cpus).max().unwrap_or(1),
         threads: records.iter().map(|r| r.threads).max().unwrap_or(1),
+        device: first.meta.device.clone(),
         optimised: records.iter().all(|r| r.optimised),
         started_utc: records
             .iter()

@@ -83,6 +83,11 @@ pub struct Meta {
     pub logical_cpus: usize,
     /// Worker threads the renders used.
     pub threads: usize,
+    /// The device the runs traced on besides the CPU (a GPU adapter:
+    /// name, back end, driver, type, and whether it is a software one);
+    /// absent for CPU-only studies.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device: Option<String>,
     /// False for a build with debug assertions: its timings mean little.
     pub optimised: bool,
     /// UTC start, ISO 8601.

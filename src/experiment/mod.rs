@@ -100,7 +100,9 @@
 //!   is present are skipped. The columns must match the manifest's.
 //! - `meta.json`: the manifest as run (after `--quick`, ranges expanded),
 //!   raylab version, git revision and dirty flag, CPU model, thread count,
-//!   whether the build was optimised, UTC start and end (ISO 8601), wall
+//!   the GPU adapter of a study that uses one (`device`, see
+//!   [`study::Study::device`]), whether the build was optimised, UTC start
+//!   and end (ISO 8601), wall
 //!   time, the run counts, the figures and the means of ratio figures.
 //!   Written at the start with `"complete": false` and again at the end.
 //! - one `FILE.png` and `FILE.svg` per `[[figure]]`, drawn from `data.csv`
@@ -318,6 +320,7 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
         cpu_model: meta::cpu_model(),
         logical_cpus: std::thread::available_parallelism().map_or(1, |n| n.get()),
         threads,
+        device: study.device(),
         optimised: !cfg!(debug_assertions),
         started_utc: meta::utc_iso8601(started),
         finished_utc: None,

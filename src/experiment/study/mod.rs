@@ -22,6 +22,8 @@ pub mod accel_speed;
 pub mod embree_oracle;
 pub mod floodfill;
 pub mod gi_quality;
+#[cfg(feature = "gpu")]
+pub mod gpu_speed;
 pub mod gradient;
 pub mod registry;
 pub mod render_cost;
@@ -105,6 +107,13 @@ pub trait Study: Sync {
     fn figures(&self, _table: &Table, _out_dir: &Path) -> anyhow::Result<Vec<String>> {
         Ok(Vec::new())
     }
+
+    /// The device the runs trace on besides the CPU, as meta.json records
+    /// it (`device`): a GPU adapter's name, back end, driver and type.
+    /// None by default (CPU-only studies).
+    fn device(&self) -> Option<String> {
+        None
+    }
 }
 
 /// A [`Study`] with its types erased, as the registry and the runner hold
@@ -128,6 +137,9 @@ pub trait DynStudy: Sync {
 
     /// See [`Study::figures`].
     fn figures(&self, table: &Table, out_dir: &Path) -> anyhow::Result<Vec<String>>;
+
+    /// See [`Study::device`].
+    fn device(&self) -> Option<String>;
 }
 
 impl<S: Study> DynStudy for S {
@@ -170,5 +182,9 @@ impl<S: Study> DynStudy for S {
 
     fn figures(&self, table: &Table, out_dir: &Path) -> anyhow::Result<Vec<String>> {
         Study::figures(self, table, out_dir)
+    }
+
+    fn device(&self) -> Option<String> {
+        Study::device(self)
     }
 }

@@ -74,6 +74,15 @@ pub static KINDS: &[StudyKind] = &[
         examples: &["analysis/embree-oracle.toml"],
         study: &super::embree_oracle::EmbreeOracle,
     },
+    #[cfg(feature = "gpu")]
+    StudyKind {
+        name: "gpu_speed",
+        summary: "S3's GPU tables: brute force and a BVH on the CPU against the GPU port \
+                  over a mesh ladder: build, upload, shader build, kernel and total times, \
+                  rays/s, and the adapter (software or hardware)",
+        examples: &["analysis/s3-gpu.toml"],
+        study: &super::gpu_speed::GpuSpeed,
+    },
     StudyKind {
         name: "aa_patterns",
         summary: "periodograms of the pixel samplers (as `raylab spectrum`), with overlaid \
