@@ -10,7 +10,8 @@ OUT := out/demo
 
 all: build
 
-## deps: install what is missing (idempotent): real meshes from Debian packages.
+## deps: install what is missing (idempotent): real meshes from Debian packages,
+## Embree, the book's tools, a Vulkan driver (lavapipe) for the GPU port.
 deps:
 	@scripts/deps
 
@@ -27,6 +28,8 @@ demo: build
 	$(RAYLAB) render data/scenes/camel.toml -o $(OUT)/camel.png
 	$(RAYLAB) render data/scenes/camel.toml --accel embree -o $(OUT)/camel-embree.png
 	$(RAYLAB) diff $(OUT)/camel-embree.png $(OUT)/camel.png
+	$(RAYLAB) render data/scenes/s1-spheres.toml -o $(OUT)/s1-spheres.exr
+	$(RAYLAB) render data/scenes/s1-spheres.toml --device gpu -o $(OUT)/s1-spheres-gpu.exr --reference $(OUT)/s1-spheres.exr
 	$(RAYLAB) render data/scenes/cornell-box.toml -o $(OUT)/cornell-box.png
 	$(RAYLAB) render data/scenes/aa/zone-plate.toml --sampler adaptive -o $(OUT)/zone-plate-adaptive.png --spp-map $(OUT)/zone-plate-adaptive-spp.png
 	$(RAYLAB) render data/scenes/cornell-box.toml --integrator path:4 --sampler random:64 --accel bvh -o $(OUT)/cornell-box-path.png

@@ -56,15 +56,17 @@ device = ["cpu", "gpu"]
     path
 }
 
-/// The adapter, or `None` (with a note) on a machine where wgpu finds
-/// none: `make deps` installs Mesa's lavapipe, so CI always has one.
+/// The adapter (`make deps` installs Mesa's lavapipe, so CI always has
+/// one): no adapter is a failure, unless RAYLAB_NO_GPU=1 skips the GPU
+/// tests on purpose (then `None`).
 fn adapter() -> Option<String> {
+    if std::env::var("RAYLAB_NO_GPU").is_ok_and(|v| v == "1") {
+        eprintln!("RAYLAB_NO_GPU=1: gpu_speed not run, on purpose");
+        return None;
+    }
     match raylab::gpu::Gpu::new() {
         Ok(g) => Some(g.describe()),
-        Err(e) => {
-            eprintln!("no GPU adapter, gpu_speed not run: {e}");
-            None
-        }
+        Err(e) => panic!("{e}\n(set RAYLAB_NO_GPU=1 to skip the GPU tests on purpose)"),
     }
 }
 
