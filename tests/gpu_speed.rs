@@ -9,27 +9,8 @@ use raylab::experiment::{run_experiment, Options};
 use std::collections::HashMap;
 use std::path::Path;
 
-type Row = HashMap<String, String>;
-
-fn read_rows(csv_path: &Path) -> Vec<Row> {
-    let mut rdr = csv::Reader::from_path(csv_path).unwrap();
-    let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
-    rdr.records()
-        .map(|r| {
-            header
-                .iter()
-                .cloned()
-                .zip(r.unwrap().iter().map(String::from))
-                .collect()
-        })
-        .collect()
-}
-
-fn num(row: &Row, col: &str) -> f64 {
-    row[col]
-        .parse()
-        .unwrap_or_else(|_| panic!("column {col} = {:?} is not a number", row[col]))
-}
+mod common;
+use common::experiment::{num, read_rows};
 
 fn manifest(dir: &Path, brute_max_faces: u32) -> std::path::PathBuf {
     let path = dir.join("gpu.toml");

@@ -5,34 +5,14 @@
 //! at their place in the manifest.
 
 use raylab::experiment::{load_manifest, run_experiment, Options};
-use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-type Row = HashMap<String, String>;
-
-fn read_rows(csv_path: &Path) -> Vec<Row> {
-    let mut rdr = csv::Reader::from_path(csv_path).unwrap();
-    let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
-    rdr.records()
-        .map(|r| {
-            header
-                .iter()
-                .cloned()
-                .zip(r.unwrap().iter().map(String::from))
-                .collect()
-        })
-        .collect()
-}
-
-fn num(row: &Row, col: &str) -> f64 {
-    row[col]
-        .parse()
-        .unwrap_or_else(|_| panic!("column {col} = {:?} is not a number", row[col]))
-}
+mod common;
+use common::experiment::{num, read_rows};
 
 /// Brute-force face limit of the ladder's `[quick]` block.
 const QUICK_BRUTE_MAX_FACES: f64 = 1000.0;

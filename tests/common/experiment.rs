@@ -108,3 +108,28 @@ pub fn setup(manifest: &str) -> (tempfile::TempDir, PathBuf) {
     let m = write(dir.path(), "tiny.toml", manifest);
     (dir, m)
 }
+
+/// A data.csv row by column name.
+pub type Row = std::collections::HashMap<String, String>;
+
+/// Every row of a data.csv.
+pub fn read_rows(csv_path: &Path) -> Vec<Row> {
+    let mut rdr = csv::Reader::from_path(csv_path).unwrap();
+    let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
+    rdr.records()
+        .map(|r| {
+            header
+                .iter()
+                .cloned()
+                .zip(r.unwrap().iter().map(String::from))
+                .collect()
+        })
+        .collect()
+}
+
+/// A numeric cell.
+pub fn num(row: &Row, col: &str) -> f64 {
+    row[col]
+        .parse()
+        .unwrap_or_else(|_| panic!("column {col} = {:?} is not a number", row[col]))
+}

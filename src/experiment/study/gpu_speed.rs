@@ -40,7 +40,7 @@ use super::accel_cost::{mesh_scene, MeshSource, ProceduralSpec};
 use super::{median, RunContext, Study, StudySettings, Timings};
 use crate::accel::AccelKind;
 use crate::experiment::params::{
-    existing_file, parsed, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    parsed, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
 };
 use crate::experiment::row::{Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
@@ -236,24 +236,7 @@ impl Study for GpuSpeed {
     type Row = GpuSpeedRow;
 
     fn configure(&self, p: GpuSpeedParams, base_dir: &Path) -> Result<Config, ParamError> {
-        let (source, label) = match (p.mesh, p.procedural) {
-            (Some(_), Some(_)) => {
-                return Err(ParamError::new(
-                    "procedural",
-                    "give `mesh` or `procedural`, not both",
-                ))
-            }
-            (None, None) => {
-                return Err(ParamError::run(
-                    "`mesh` or `procedural` is required (in [fixed] or in the sweep)",
-                ))
-            }
-            (Some(m), None) => (
-                MeshSource::File(existing_file(base_dir, "mesh", &m, "mesh")?),
-                m,
-            ),
-            (None, Some(spec)) => (MeshSource::Procedural(spec.procedural), spec.text),
-        };
+        let (source, label) = MeshSource::from_params(p.mesh, p.procedural, base_dir)?;
         let device = match p.device.as_str() {
             "cpu" => Device::Cpu,
             "gpu" => Device::Gpu,

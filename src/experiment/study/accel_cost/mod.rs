@@ -44,8 +44,7 @@ pub use scene::{mesh_scene, parse_procedural, MeshSource, ProceduralSpec};
 use super::{RunContext, Study, StudySettings, Timings};
 use crate::accel::AccelKind;
 use crate::experiment::params::{
-    existing_file, or_default, parsed, parsed_opt, typed_params, InRange, ParamDoc, ParamError,
-    Resolution,
+    or_default, parsed, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
 };
 use crate::experiment::row::{CounterCells, Exp, Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
@@ -280,24 +279,7 @@ impl Study for AccelCost {
     type Row = AccelCostRow;
 
     fn configure(&self, p: AccelCostParams, base_dir: &Path) -> Result<Config, ParamError> {
-        let (source, label) = match (p.mesh, p.procedural) {
-            (Some(_), Some(_)) => {
-                return Err(ParamError::new(
-                    "procedural",
-                    "give `mesh` or `procedural`, not both",
-                ))
-            }
-            (None, None) => {
-                return Err(ParamError::run(
-                    "`mesh` or `procedural` is required (in [fixed] or in the sweep)",
-                ))
-            }
-            (Some(m), None) => (
-                MeshSource::File(existing_file(base_dir, "mesh", &m, "mesh")?),
-                m,
-            ),
-            (None, Some(spec)) => (MeshSource::Procedural(spec.procedural), spec.text),
-        };
+        let (source, label) = MeshSource::from_params(p.mesh, p.procedural, base_dir)?;
         let res = p.resolution.unwrap_or(Resolution {
             width: 200,
             height: 200,

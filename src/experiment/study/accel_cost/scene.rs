@@ -23,6 +23,31 @@ pub enum MeshSource {
 }
 
 impl MeshSource {
+    /// The mesh a run names by `mesh` (a file, relative to the manifest's
+    /// folder `base_dir`) or by `procedural`, exactly one of them; with
+    /// the label its rows carry.
+    pub fn from_params(
+        mesh: Option<String>,
+        procedural: Option<ProceduralSpec>,
+        base_dir: &std::path::Path,
+    ) -> Result<(Self, String), crate::experiment::params::ParamError> {
+        use crate::experiment::params::{existing_file, ParamError};
+        match (mesh, procedural) {
+            (Some(_), Some(_)) => Err(ParamError::new(
+                "procedural",
+                "give `mesh` or `procedural`, not both",
+            )),
+            (None, None) => Err(ParamError::run(
+                "`mesh` or `procedural` is required (in [fixed] or in the sweep)",
+            )),
+            (Some(m), None) => Ok((
+                MeshSource::File(existing_file(base_dir, "mesh", &m, "mesh")?),
+                m,
+            )),
+            (None, Some(spec)) => Ok((MeshSource::Procedural(spec.procedural), spec.text)),
+        }
+    }
+
     /// The `[[mesh]]` lines of a scene file that load this mesh.
     fn scene_lines(&self) -> String {
         match self {
