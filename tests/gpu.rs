@@ -444,6 +444,32 @@ fn the_cli_renders_on_the_gpu_and_names_the_adapter() {
     // No noise from the Vulkan drivers' display probing.
     assert!(!String::from_utf8_lossy(&o.stderr).contains("XDG_RUNTIME_DIR"));
 
+    // `raylab diff` on the CPU's and the GPU's files: within the tolerance.
+    let cpu = dir.path().join("s1-cpu.exr");
+    let size = ["--width", "40", "--height", "30"];
+    let o = raylab(
+        &[
+            &["render", "data/scenes/s1-spheres.toml"],
+            &size[..],
+            &["-o", cpu.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = raylab(&[
+        "diff",
+        out.to_str().unwrap(),
+        cpu.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let max = json["max_abs_error"].as_f64().unwrap();
+    assert!(
+        max <= f64::from(TOLERANCE),
+        "raylab diff: max |GPU − CPU| = {max}"
+    );
+
     // The path tracer has no GPU port: exit 1, nothing written.
     let bad = dir.path().join("path.png");
     let o = raylab(&[
