@@ -42,8 +42,14 @@ use crate::stats::Counters;
 use std::time::Instant;
 use upload::{Kernel, Packed, Params};
 
-/// The shader source, with `{{…}}` placeholders for the kernel constants.
-const SHADER: &str = include_str!("whitted.wgsl");
+/// The shader source, with `{{…}}` placeholders for the kernel constants:
+/// its four parts in order (shader/common.wgsl says what each holds).
+const SHADER: &str = concat!(
+    include_str!("shader/common.wgsl"),
+    include_str!("shader/sampling.wgsl"),
+    include_str!("shader/intersect.wgsl"),
+    include_str!("shader/whitted.wgsl"),
+);
 
 /// Words per pixel of the counts buffer: the 15 counters and the
 /// primitive hit by the first camera ray (+1; 0 for none).
@@ -402,7 +408,7 @@ impl Gpu {
         let d = &self.device;
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let desc = wgpu::ShaderModuleDescriptor {
-            label: Some("whitted.wgsl"),
+            label: Some("raylab whitted"),
             source: wgpu::ShaderSource::Wgsl(source.into()),
         };
         let module = if std::env::var_os("RAYLAB_GPU_UNCHECKED").is_some() {

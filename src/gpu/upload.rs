@@ -18,7 +18,7 @@
 //!   arrays of `shape::arrays` byte for byte;
 //! - mesh (4): first face, first normal, whether it has normals, unused;
 //!   face (3 normal indices); normal (3);
-//! - material (32 words, per object): see `whitted.wgsl`;
+//! - material (32 words, per object): see `shader/whitted.wgsl`;
 //! - point light (8): position, inverse-square flag, radiance, unused.
 
 use crate::accel::bvh::volume::{BoundingVolume, QUADRIC_MARGIN};
@@ -31,7 +31,7 @@ use crate::sampler::{halton_point, Sampler};
 use crate::scene::Scene;
 use crate::shape::{PrimArrays, OFFSET_SCALE};
 
-/// The uniform block of `whitted.wgsl`, field for field (256 bytes).
+/// The uniform block of `shader/common.wgsl`, field for field (256 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Params {
