@@ -231,11 +231,7 @@ impl Gpu {
             }
         }
         let d = &self.device;
-        let scene_buf = self.storage(
-            "scene",
-            bytemuck::cast_slice(&packed.words),
-            wgpu::BufferUsages::empty(),
-        );
+        let scene_buf = self.storage("scene", bytemuck::cast_slice(&packed.words));
         let film_bytes = pixels * 32;
         let count_bytes = if counters {
             pixels * COUNT_WORDS as u64 * 4
@@ -442,11 +438,11 @@ impl Gpu {
         })
     }
 
-    fn storage(&self, label: &str, data: &[u8], extra: wgpu::BufferUsages) -> wgpu::Buffer {
+    fn storage(&self, label: &str, data: &[u8]) -> wgpu::Buffer {
         let b = self.buffer(
             label,
             data.len() as u64,
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         );
         self.queue.write_buffer(&b, 0, data);
         b

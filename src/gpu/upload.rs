@@ -175,7 +175,6 @@ pub fn pack(scene: &Scene) -> Result<Packed, String> {
     };
 
     // The tree and the slot order it implies.
-    let no_root = |p: &mut Params| p.has_root = 0;
     let (kernel, nodes, mut slots): (Kernel, Vec<u32>, Vec<u32>) = match &scene.accel {
         Accelerator::Brute(b) => (
             Kernel {
@@ -264,8 +263,6 @@ pub fn pack(scene: &Scene) -> Result<Packed, String> {
     };
     if kernel.accel == 1 {
         p.has_root = u32::from(!nodes.is_empty());
-    } else if kernel.accel == 0 {
-        no_root(&mut p);
     }
     p.n_accel = slots.len() as u32;
     p.n_unbounded = scene.unbounded.len() as u32;
@@ -291,14 +288,12 @@ pub fn pack(scene: &Scene) -> Result<Packed, String> {
             u32::from(!m.normals.is_empty()),
             0,
         ]);
+        // Faces are looked up only for meshes with normals.
         if !m.normals.is_empty() {
             faces.extend(m.triangles.iter().flatten());
             for n in &m.normals {
                 push_f32s(&mut normals, &n.to_array());
             }
-        } else {
-            // Keep face numbering aligned: faces are looked up only for
-            // meshes with normals, so nothing is needed here.
         }
     }
     p.o_meshes = section(&mut words, &meshes);
