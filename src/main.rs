@@ -55,6 +55,29 @@ enum Command {
     /// biased at those edges. `--check fd` measures the difference against
     /// central finite differences.
     Grad(GradArgs),
+    /// Recover scene parameters from an image: gradient descent (Adam or
+    /// plain) on a loss between renders and a target.
+    ///
+    /// The spec (TOML) names the scene, the target (an image file, or the
+    /// same scene with other parameter values, rendered first), the
+    /// parameters with bounds and start values, the loss (l2, l1,
+    /// relative_l2), the optimiser, the iterations and the samples per
+    /// iteration; its format is in the book's command-line reference
+    /// (book/src/reference/cli.md). Each iteration renders the gradient
+    /// and the image with fresh, independent seeds.
+    ///
+    /// Writes to the output folder optimize.csv (one row per iteration:
+    /// loss, gradient norm, parameters, gradient), final.toml (the scene
+    /// with the latest parameters, after every iteration), target.exr/png
+    /// and the figures loss, params and images (PNG + SVG); prints each
+    /// parameter's start, final and (when known) true value. On a terminal
+    /// a progress bar shows the loss. The first Ctrl-C stops after the
+    /// current iteration and still draws the figures (exit status 130);
+    /// a second ends at once. Rows already written stay whole.
+    ///
+    /// The derivatives are `raylab grad`'s interior ones: parameters that
+    /// move silhouettes or shadow edges get biased gradients.
+    Optimize(OptimizeArgs),
     /// Compare an image with a reference (MSE, relMSE, PSNR, ꟻLIP).
     ///
     /// Prints the mean squared error, relative MSE, PSNR, the largest
@@ -435,6 +458,26 @@ struct GradArgs {
     check: Option<report::grad::FdCheck>,
 }
 
+#[derive(clap::Args, Debug)]
+struct OptimizeArgs {
+    /// The optimisation spec (TOML).
+    spec: PathBuf,
+    /// Output folder: optimize.csv, final.toml, target.exr/png, figures.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Stop after N iterations: the first N of the spec's run, with its
+    /// rate schedule (a quick look at a long run); snapshots beyond them
+    /// are dropped.
+    #[arg(long, value_name = "N")]
+    stop_after: Option<u32>,
+    /// Render threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Print nothing but errors (and no progress bar).
+    #[arg(short, long)]
+    quiet: bool,
+}
+
 /// `--rr-depth`: a bounce count, or `off`.
 #[derive(Clone, Copy, Debug)]
 struct RrDepth(Option<u32>);
@@ -456,6 +499,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => cmd_render(args),
         Command::Grad(args) => cmd_grad(args),
+        Command::Optimize(args) => return cmd_optimize(args),
         Command::Diff(args) => cmd_diff(args),
         Command::Experiment(args) => cmd_experiment(args),
         Command::Merge(args) => {
@@ -550,6 +594,37 @@ fn cmd_grad(args: GradArgs) -> Result<()> {
     print_stdout(&report::grad::GradReport::run(&opts)?.to_string())
 }
 
+/// Exit status 130 when Ctrl-C stopped the run (after its figures were
+/// drawn), as a shell reports an interrupted command.
+fn cmd_optimize(args: OptimizeArgs) -> ExitCode {
+    let opts = report::optimize::OptimizeOptions {
+        spec: args.spec,
+        out_dir: args.output,
+        stop_after: args.stop_after,
+        threads: args.threads,
+        progress: !args.quiet,
+    };
+    match report::optimize::OptimizeReport::run(&opts) {
+        Ok(report) => {
+            if !args.quiet {
+                if let Err(e) = print_stdout(&report.to_string()) {
+                    eprintln!("error: {e:#}");
+                    return ExitCode::FAILURE;
+                }
+            }
+            if report.interrupted {
+                ExitCode::from(130)
+            } else {
+                ExitCode::SUCCESS
+            }
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
 fn cmd_diff(args: DiffArgs) -> Result<()> {
     let report = report::DiffReport::run(&args.test, &args.reference, args.out.as_deref())?;
     if args.json {
@@ -571,6 +646,8 @@ fn cmd_spectrum(args: SpectrumArgs) -> Result<()> {
 }
 
 fn cmd_experiment(args: ExperimentArgs) -> Result<()> {
+    // The gpu_speed study opens the GPU.
+    quiet_wayland_probe(report::render::Device::Gpu);
     let opts = experiment::Options {
         quick: args.quick,
         resume: args.resume,

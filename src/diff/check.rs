@@ -45,9 +45,46 @@ pub fn scene_text_with(
     p: &Param,
     value: f32,
 ) -> Result<String, String> {
+    scene_text_with_all(text, file, &[(p, value)])
+}
+
+/// The scene file's text with every `(p, value)` set (components of one
+/// field may come in any order; the others keep their values, defaults
+/// written out). Comments are not kept.
+pub fn scene_text_with_all(
+    text: &str,
+    file: &SceneFile,
+    values: &[(&Param, f32)],
+) -> Result<String, String> {
     let mut table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
-    let mut values = field_values(file, p.entity, p.field)?;
-    values[p.component] = value;
+    // Each field once, with all its set components.
+    let mut fields: Vec<(&Param, Vec<f32>)> = Vec::new();
+    for &(p, value) in values {
+        let at = fields
+            .iter()
+            .position(|(q, _)| q.entity == p.entity && q.field == p.field);
+        let i = match at {
+            Some(i) => i,
+            None => {
+                fields.push((p, field_values(file, p.entity, p.field)?));
+                fields.len() - 1
+            }
+        };
+        fields[i].1[p.component] = value;
+    }
+    for (p, values) in fields {
+        set_field(&mut table, file, p, &values)?;
+    }
+    toml::to_string(&table).map_err(|e| e.to_string())
+}
+
+/// Write `values` (the whole field of `p`) into the scene file's table.
+fn set_field(
+    table: &mut toml::Table,
+    file: &SceneFile,
+    p: &Param,
+    values: &[f32],
+) -> Result<(), String> {
     let num = |v: f32| toml::Value::Float(f64::from(v));
     let new = match values.len() {
         1 => num(values[0]),
@@ -104,7 +141,7 @@ pub fn scene_text_with(
         }
     };
     section.insert(p.field.to_string(), new);
-    toml::to_string(&table).map_err(|e| e.to_string())
+    Ok(())
 }
 
 /// A central difference of one parameter.

@@ -8,6 +8,8 @@
 //!   unchanged.
 //! - [`render`]: the gradient render, per pixel, with sample variances.
 //! - [`check`]: central finite differences, the check, and the edge mask.
+//! - [`optimize`]: inverse rendering, gradient descent on a loss against a
+//!   target image (`raylab optimize`).
 //!
 //! **What forward mode through fixed samples computes.** Each pixel
 //! estimate is a function of the parameters for fixed random numbers; the
@@ -33,13 +35,14 @@
 //! parameters for fixed numbers, and its density is differentiated with it.
 
 pub mod check;
+pub mod optimize;
 pub mod params;
 pub mod render;
 pub mod view;
 
 pub use check::{
-    central_difference, check_param, check_step, compare, default_step, edge_mask, Comparison,
-    Difference,
+    central_difference, check_param, check_step, compare, default_step, edge_mask,
+    scene_text_with_all, Comparison, Difference,
 };
 pub use params::{resolve, resolve_all, Entity, Param};
 pub use render::{check_supported, render_gradients, Gradients};

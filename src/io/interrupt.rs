@@ -16,13 +16,21 @@
 use std::ffi::CString;
 use std::path::Path;
 use std::ptr::null_mut;
-use std::sync::atomic::{AtomicPtr, Ordering::SeqCst};
+use std::sync::atomic::{AtomicBool, AtomicPtr, Ordering::SeqCst};
 
 const SLOTS: usize = 32;
 
 static PENDING: [AtomicPtr<libc::c_char>; SLOTS] = [const { AtomicPtr::new(null_mut()) }; SLOTS];
 
+/// Whether the first SIGINT only raises [`REQUESTED`] ([`defer`]).
+static DEFER: AtomicBool = AtomicBool::new(false);
+/// Set by a deferred SIGINT.
+static REQUESTED: AtomicBool = AtomicBool::new(false);
+
 extern "C" fn on_signal(sig: libc::c_int) {
+    if sig == libc::SIGINT && DEFER.load(SeqCst) && !REQUESTED.swap(true, SeqCst) {
+        return;
+    }
     for slot in &PENDING {
         let p = slot.load(SeqCst);
         if !p.is_null() {
@@ -49,6 +57,29 @@ pub fn install() {
             libc::signal(libc::SIGTERM, handler);
         }
     });
+}
+
+/// While the returned guard lives, the first SIGINT does not end the
+/// process but makes [`requested`] true (see the module docs); a second
+/// one ends it. Dropping the guard restores the immediate exit.
+pub fn defer() -> Deferred {
+    REQUESTED.store(false, SeqCst);
+    DEFER.store(true, SeqCst);
+    Deferred(())
+}
+
+/// Whether a deferred SIGINT has arrived since [`defer`].
+pub fn requested() -> bool {
+    REQUESTED.load(SeqCst)
+}
+
+/// The guard of [`defer`].
+pub struct Deferred(());
+
+impl Drop for Deferred {
+    fn drop(&mut self) {
+        DEFER.store(false, SeqCst);
+    }
 }
 
 /// A temporary file being written: unlinked if a signal ends the process

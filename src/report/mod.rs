@@ -4,7 +4,8 @@
 //! returns a report value that displays as the command's text output, so
 //! that `src/main.rs` only parses arguments and dispatches:
 //! [`render`] (`raylab render`), [`stats`] (`raylab stats`), [`diff`]
-//! (`raylab diff`), [`spectrum`] (`raylab spectrum`), [`experiment`]
+//! (`raylab diff`), [`grad`] (`raylab grad`), [`optimize`] (`raylab
+//! optimize`), [`spectrum`] (`raylab spectrum`), [`experiment`]
 //! (`raylab experiment`) and, with the `embree` feature, [`validate`]
 //! (`raylab validate`).
 //!
@@ -16,6 +17,7 @@
 pub mod diff;
 pub mod experiment;
 pub mod grad;
+pub mod optimize;
 pub mod progress;
 pub mod render;
 pub mod spectrum;
