@@ -99,6 +99,18 @@ fn raylab(args: &[&str]) -> Output {
         .expect("running raylab")
 }
 
+/// `raylab optimize SPEC -o OUT EXTRA…`.
+fn optimize(spec: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "optimize",
+        spec.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    raylab(&args)
+}
+
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
@@ -131,12 +143,7 @@ fn column(rows: &[Vec<String>], header: &[&str], name: &str) -> Vec<f64> {
 fn optimize_recovers_a_colour_from_an_image() {
     let (dir, spec) = setup(&spec(100));
     let out = dir.path().join("out");
-    let o = raylab(&[
-        "optimize",
-        spec.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = optimize(&spec, &out, &[]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     let report = text(&o.stdout);
     assert!(report.contains("largest relative error"), "{report}");
@@ -246,13 +253,7 @@ name = "materials.red.color[0]"
     )
     .unwrap();
     let out = dir.path().join("deep/out");
-    let o = raylab(&[
-        "optimize",
-        spec.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = optimize(&spec, &out, &["-q"]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     assert!(o.stdout.is_empty(), "--quiet prints nothing");
     let png = out.join("final.png");
@@ -328,12 +329,7 @@ fn spec_errors_name_the_file_and_the_place() {
         assert!(good.contains(from), "{from}");
         let (dir, spec) = setup(&good.replacen(from, to, 1));
         let out = dir.path().join("out");
-        let o = raylab(&[
-            "optimize",
-            spec.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-        ]);
+        let o = optimize(&spec, &out, &[]);
         let err = text(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{want}: {err}");
         assert!(err.contains(want), "expected `{want}` in: {err}");
@@ -358,12 +354,7 @@ fn an_image_target_of_the_wrong_size_is_refused() {
     );
     std::fs::write(&spec, text_spec).unwrap();
     let out = dir.path().join("out");
-    let o = raylab(&[
-        "optimize",
-        spec.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = optimize(&spec, &out, &[]);
     assert_eq!(o.status.code(), Some(1));
     assert!(text(&o.stderr).contains("4×4"), "{}", text(&o.stderr));
 }

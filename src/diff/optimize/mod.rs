@@ -338,8 +338,8 @@ impl Problem {
     /// Read the scene file and make the target (rendering it when the spec
     /// gives values; `threads` as for a render).
     pub fn new(spec: Spec, threads: Option<usize>) -> Result<Self, String> {
-        let text = std::fs::read_to_string(&spec.scene)
-            .map_err(|e| format!("{}: cannot read scene file: {e}", spec.scene.display()))?;
+        // The text the spec was checked against, not the file read again.
+        let text = spec.scene_text.clone();
         let file: SceneFile = toml::from_str(&text)
             .map_err(|e| format!("{}: {}", spec.scene.display(), e.message()))?;
         let mut problem = Self {

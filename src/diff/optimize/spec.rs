@@ -113,8 +113,10 @@ pub struct Spec {
     /// The spec file.
     pub path: PathBuf,
     pub description: String,
-    /// The scene file (resolved against the spec's folder).
+    /// The scene file (resolved against the spec's folder)…
     pub scene: PathBuf,
+    /// …and its text as checked.
+    pub scene_text: String,
     pub integrator: IntegratorKind,
     /// Samples of each iteration's gradient render.
     pub sampler: Sampler,
@@ -139,13 +141,7 @@ impl Spec {
     /// The scene loader's overrides every render of the run shares (the
     /// seed and sampler are set per render).
     pub fn overrides(&self) -> Overrides {
-        Overrides {
-            width: self.width,
-            height: self.height,
-            sampler: Some(self.sampler),
-            filter: Some(crate::film::Filter::Box),
-            ..Overrides::default()
-        }
+        run_overrides(self.width, self.height, self.sampler)
     }
 
     /// The true values of the optimised parameters, when the target is a
@@ -166,6 +162,18 @@ impl Spec {
                 })
                 .collect(),
         )
+    }
+}
+
+/// The overrides of a run's renders: its size, its sampler and the box
+/// filter the gradient render needs.
+fn run_overrides(width: Option<u32>, height: Option<u32>, sampler: Sampler) -> Overrides {
+    Overrides {
+        width,
+        height,
+        sampler: Some(sampler),
+        filter: Some(crate::film::Filter::Box),
+        ..Overrides::default()
     }
 }
 
@@ -258,14 +266,8 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<Spec, InputError> {
     let optimizer = optimizer_settings(file.optimizer.get_ref(), &at)?;
 
     // Parameter names resolve against the scene file.
-    let overrides = Overrides {
-        width,
-        height,
-        sampler: Some(sampler),
-        filter: Some(crate::film::Filter::Box),
-        ..Overrides::default()
-    };
-    let (_, scene_now, scene_file) = diff::load(&scene, &overrides).map_err(|e| {
+    let overrides = run_overrides(width, height, sampler);
+    let (scene_text, scene_now, scene_file) = diff::load(&scene, &overrides).map_err(|e| {
         at(
             file.scene.span(),
             format!("scene `{}`: {e}", file.scene.get_ref()),
@@ -326,6 +328,7 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<Spec, InputError> {
         path: path.to_path_buf(),
         description: file.description.trim().to_string(),
         scene,
+        scene_text,
         integrator,
         sampler,
         image_sampler,
