@@ -83,6 +83,39 @@ impl<R: Real> Frame<R> {
         RayR::new(self.eye, dir.normalize())
     }
     // ANCHOR_END: generate_ray
+
+    /// The film position (x, y) in pixels where point `p` appears: the
+    /// inverse of [`Frame::ray`] (`None` for points not in front of the
+    /// eye). Over dual numbers it is how a point's motion moves its image.
+    pub fn project(&self, p: V3<R>, width: u32, height: u32) -> Option<(R, R)> {
+        let d = p - self.eye;
+        let depth = -d.dot(self.n);
+        if depth.value() <= 0.0 {
+            return None;
+        }
+        let s = self.near / depth;
+        let (uc, vr) = (d.dot(self.u) * s, d.dot(self.v) * s);
+        let two = R::from_f32(2.0);
+        let x = (uc + self.half_width) * R::from_f32(width as f32) / (two * self.half_width);
+        let r = (vr + self.half_height) * R::from_f32(height as f32) / (two * self.half_height);
+        Some((x, R::from_f32(height as f32) - r))
+    }
+}
+
+impl Frame<f32> {
+    /// The same frame over another [`Real`], as constants.
+    pub fn lift<R: Real>(&self) -> Frame<R> {
+        let v = |x: V3<f32>| V3::from_vec3(x.value());
+        Frame {
+            eye: v(self.eye),
+            u: v(self.u),
+            v: v(self.v),
+            n: v(self.n),
+            near: R::from_f32(self.near),
+            half_height: R::from_f32(self.half_height),
+            half_width: R::from_f32(self.half_width),
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -212,6 +245,31 @@ mod tests {
         // Left edge: W = 2H, so tan(angle) = 2.
         let left = cam.generate_ray(0.0, 50.0);
         assert!((left.dir.x / -left.dir.z + 2.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn project_inverts_the_ray() {
+        let cam = Camera::new(
+            Vec3::new(1.0, 2.0, 5.0),
+            Vec3::new(0.3, 0.0, 0.0),
+            Vec3::Y,
+            50.0,
+            1.5,
+            1.0,
+            96,
+            64,
+        )
+        .unwrap();
+        let f = cam.frame();
+        for (x, y) in [(0.0, 0.0), (47.3, 12.9), (95.5, 63.25)] {
+            let ray = f.ray(x, y, 96, 64);
+            let (px, py) = f.project(ray.at(7.5), 96, 64).unwrap();
+            assert!((px - x).abs() < 1e-3 && (py - y).abs() < 1e-3, "{px} {py}");
+        }
+        assert_eq!(
+            f.project(V3::from_vec3(Vec3::new(1.0, 2.0, 9.0)), 96, 64),
+            None
+        );
     }
 
     #[test]

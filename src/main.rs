@@ -75,8 +75,8 @@ enum Command {
     /// current iteration and still draws the figures (exit status 130);
     /// a second ends at once. Rows already written stay whole.
     ///
-    /// The derivatives are `raylab grad`'s interior ones: parameters that
-    /// move silhouettes or shadow edges get biased gradients.
+    /// The derivatives are `raylab grad`'s, with the boundary term unless
+    /// the spec says `visibility = "interior"`.
     Optimize(OptimizeArgs),
     /// Compare an image with a reference (MSE, relMSE, PSNR, ꟻLIP).
     ///
@@ -456,6 +456,12 @@ struct GradArgs {
     /// parameter; writes <param>.fd-diff.png.
     #[arg(long, value_parser = report::grad::FdCheck::parse)]
     check: Option<report::grad::FdCheck>,
+    /// `full`: the whole derivative, forward mode plus the boundary term
+    /// at silhouettes and shadow edges (edge sampling; also written alone
+    /// to <param>.boundary.exr/png); `interior`: forward mode alone,
+    /// biased where a parameter moves an edge.
+    #[arg(long, default_value = "full", value_parser = raylab::diff::Visibility::parse)]
+    visibility: raylab::diff::Visibility,
 }
 
 #[derive(clap::Args, Debug)]
@@ -588,6 +594,7 @@ fn cmd_grad(args: GradArgs) -> Result<()> {
         out_dir: args.output,
         params: args.params,
         check: args.check,
+        visibility: args.visibility,
         threads: args.common.threads,
         progress: true,
     };

@@ -32,8 +32,16 @@ fn params(names: &[&str], file: &SceneFile) -> Vec<Param> {
 fn grads(text: &str, names: &[&str], integrator: IntegratorKind) -> (Gradients, Scene, SceneFile) {
     let (scene, file) = load(text);
     let p = params(names, &file);
-    let g = diff::render_gradients(&scene, &file, Path::new("test.toml"), &p, integrator, None)
-        .unwrap();
+    let g = diff::render_gradients(
+        &scene,
+        &file,
+        Path::new("test.toml"),
+        &p,
+        integrator,
+        diff::Visibility::Interior,
+        None,
+    )
+    .unwrap();
     (g, scene, file)
 }
 
@@ -128,7 +136,16 @@ fn ad_vs_fd_with(
     let scene = parse_scene(text, path, overrides).unwrap();
     let file: SceneFile = toml::from_str(text).unwrap();
     let p = params(&[name], &file);
-    let g = diff::render_gradients(&scene, &file, path, &p, integrator, None).unwrap();
+    let g = diff::render_gradients(
+        &scene,
+        &file,
+        path,
+        &p,
+        integrator,
+        diff::Visibility::Interior,
+        None,
+    )
+    .unwrap();
     let h = diff::default_step(&p[0]);
     diff::check_param(
         path, text, &file, overrides, &scene, &g, 0, h, integrator, None,
@@ -414,7 +431,18 @@ fn gradients_are_identical_on_one_and_two_threads() {
         .collect();
     let p = diff::resolve_all(&names, &file).unwrap();
     let integrator = IntegratorKind::parse("path:3").unwrap();
-    let run = |t| diff::render_gradients(&scene, &file, &cornell, &p, integrator, Some(t)).unwrap();
+    let run = |t| {
+        diff::render_gradients(
+            &scene,
+            &file,
+            &cornell,
+            &p,
+            integrator,
+            diff::Visibility::Interior,
+            Some(t),
+        )
+        .unwrap()
+    };
     let (a, b) = (run(1), run(2));
     for k in 0..p.len() {
         assert!(a.mean[k]
@@ -453,6 +481,7 @@ fn seventeen_parameters_take_two_passes_and_agree_with_one() {
         Path::new("test.toml"),
         &many,
         IntegratorKind::Whitted,
+        diff::Visibility::Interior,
         None,
     )
     .unwrap();
@@ -462,6 +491,7 @@ fn seventeen_parameters_take_two_passes_and_agree_with_one() {
         Path::new("test.toml"),
         &many[17..],
         IntegratorKind::Whitted,
+        diff::Visibility::Interior,
         None,
     )
     .unwrap();
@@ -545,7 +575,16 @@ fn unsupported_set_ups_are_refused() {
     let (scene, file) = load(LAMBERT);
     let p = params(&["light[0].intensity"], &file);
     let ff = IntegratorKind::parse("floodfill").unwrap();
-    let e = diff::render_gradients(&scene, &file, Path::new("t.toml"), &p, ff, None).unwrap_err();
+    let e = diff::render_gradients(
+        &scene,
+        &file,
+        Path::new("t.toml"),
+        &p,
+        ff,
+        diff::Visibility::Interior,
+        None,
+    )
+    .unwrap_err();
     assert!(e.contains("flood fill"), "{e}");
     let adaptive = parse_scene(
         LAMBERT,
@@ -562,6 +601,7 @@ fn unsupported_set_ups_are_refused() {
         Path::new("t.toml"),
         &p,
         IntegratorKind::Whitted,
+        diff::Visibility::Interior,
         None,
     )
     .unwrap_err();

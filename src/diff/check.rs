@@ -200,6 +200,63 @@ pub fn check_step(
     Ok(())
 }
 
+/// One central difference of the image in `p`: the two renders at p ± h.
+pub struct Step {
+    /// (I(p + h) − I(p − h)) / 2h per pixel and channel (row-major RGB).
+    pub per_pixel: Vec<f32>,
+    /// The same for the image mean.
+    pub image_mean: f64,
+    /// The scenes at p + h and p − h.
+    pub scenes: [Scene; 2],
+    /// The step realised by the `f32` file values.
+    pub h: f32,
+}
+
+/// The central difference of the image in `p` with step `step` alone (the
+/// scene at `path`, whose text is `text`, rendered with `overrides` and
+/// `integrator` on `threads` threads): the finite-difference *estimator*,
+/// two renders with the scene's seed.
+#[allow(clippy::too_many_arguments)]
+pub fn difference_step(
+    path: &Path,
+    text: &str,
+    file: &SceneFile,
+    overrides: &Overrides,
+    p: &Param,
+    step: f32,
+    integrator: IntegratorKind,
+    threads: Option<usize>,
+) -> Result<Step, String> {
+    let render = |s: &Scene| -> Result<LinearImage, String> {
+        let (film, _) = integrator.render::<NoStats>(s, threads)?;
+        Ok(film.image())
+    };
+    let (vp, vm) = (p.value + step, p.value - step);
+    let plus = load_with(path, text, file, overrides, p, vp)?;
+    let minus = load_with(path, text, file, overrides, p, vm)?;
+    let h = 0.5 * (vp - vm);
+    if h <= 0.0 {
+        return Err(format!(
+            "step {step} is too small for `{}` = {} in f32",
+            p.name, p.value
+        ));
+    }
+    let (ip, im) = (render(&plus)?, render(&minus)?);
+    let per_pixel = ip
+        .iter()
+        .zip(im.iter())
+        .map(|(a, b)| (a - b) / (2.0 * h))
+        .collect();
+    let mean =
+        |img: &LinearImage| img.iter().map(|&x| f64::from(x)).sum::<f64>() / img.len() as f64;
+    Ok(Step {
+        per_pixel,
+        image_mean: (mean(&ip) - mean(&im)) / (2.0 * f64::from(h)),
+        scenes: [plus, minus],
+        h,
+    })
+}
+
 /// Render the central difference of the image in `p` with step `h` (the
 /// scene at `path`, whose text is `text`, rendered with `overrides` and
 /// `integrator` on `threads` threads): renders at p ± h and p ± h/2, and
@@ -215,46 +272,18 @@ pub fn central_difference(
     integrator: IntegratorKind,
     threads: Option<usize>,
 ) -> Result<Difference, String> {
-    let load = |v: f32| -> Result<(Scene, f32), String> {
-        Ok((load_with(path, text, file, overrides, p, v)?, v))
-    };
-    let render = |s: &Scene| -> Result<LinearImage, String> {
-        let (film, _) = integrator.render::<NoStats>(s, threads)?;
-        Ok(film.image())
-    };
-    type Step = (Vec<f32>, f64, [Scene; 2], f32);
-    let difference = |step: f32| -> Result<Step, String> {
-        let (plus, vp) = load(p.value + step)?;
-        let (minus, vm) = load(p.value - step)?;
-        let h_eff = 0.5 * (vp - vm);
-        if h_eff <= 0.0 {
-            return Err(format!(
-                "step {step} is too small for `{}` = {} in f32",
-                p.name, p.value
-            ));
-        }
-        let (ip, im) = (render(&plus)?, render(&minus)?);
-        let per_pixel = ip
-            .iter()
-            .zip(im.iter())
-            .map(|(a, b)| (a - b) / (2.0 * h_eff))
-            .collect();
-        let mean =
-            |img: &LinearImage| img.iter().map(|&x| f64::from(x)).sum::<f64>() / img.len() as f64;
-        let d = (mean(&ip) - mean(&im)) / (2.0 * f64::from(h_eff));
-        Ok((per_pixel, d, [plus, minus], h_eff))
-    };
-    let (per_pixel, image_mean, scenes, h_eff) = difference(h)?;
-    let (per_pixel_half, _, _, _) = difference(0.5 * h)?;
-    let (base, _) = load(p.value)?;
-    let image = render(&base)?.iter().copied().collect();
+    let step = |h| difference_step(path, text, file, overrides, p, h, integrator, threads);
+    let full = step(h)?;
+    let half = step(0.5 * h)?;
+    let base = load_with(path, text, file, overrides, p, p.value)?;
+    let (film, _) = integrator.render::<NoStats>(&base, threads)?;
     Ok(Difference {
-        h: h_eff,
-        per_pixel,
-        per_pixel_half,
-        image,
-        image_mean,
-        scenes,
+        h: full.h,
+        per_pixel: full.per_pixel,
+        per_pixel_half: half.per_pixel,
+        image: film.image().iter().copied().collect(),
+        image_mean: full.image_mean,
+        scenes: full.scenes,
     })
 }
 
@@ -379,11 +408,26 @@ pub struct Comparison {
     pub interior_error: [f64; 3],
     /// AD − FD per pixel (channel mean), row-major.
     pub difference: Vec<f32>,
+    /// Share of all pixels, and of the pixels near an edge, where
+    /// |AD − FD| ≤ 4 standard errors of AD + 10⁻³ of the image's mean
+    /// |FD| (the difference's own error: O(h²) and the noise of two
+    /// renders that share their random numbers). With the boundary term
+    /// both should be at least 0.99 when FD is converged; without it the
+    /// edge pixels fail.
+    pub within_4se: f64,
+    pub within_4se_edges: f64,
 }
 
-/// Compare the AD channel-mean image `ad_grey` and image-mean derivative
-/// `ad_mean` with the difference `fd`, leaving out pixels in `edges`.
-pub fn compare(ad_grey: &[f32], ad_mean: f64, fd: &Difference, edges: &[bool]) -> Comparison {
+/// Compare the AD channel-mean image `ad_grey` (with per-pixel standard
+/// errors `ad_se`) and image-mean derivative `ad_mean` with the difference
+/// `fd`; the percentiles leave out pixels in `edges`.
+pub fn compare(
+    ad_grey: &[f32],
+    ad_se: &[f32],
+    ad_mean: f64,
+    fd: &Difference,
+    edges: &[bool],
+) -> Comparison {
     let fd_grey: Vec<f32> = fd
         .per_pixel
         .chunks_exact(3)
@@ -404,6 +448,24 @@ pub fn compare(ad_grey: &[f32], ad_mean: f64, fd: &Difference, edges: &[bool]) -
         .map(|&i| f64::from(difference[i]).abs() / scale.max(f64::MIN_POSITIVE))
         .collect();
     let p = crate::math::percentiles(&mut errs, &[50.0, 90.0, 99.0]);
+    let all_scale =
+        fd_grey.iter().map(|&x| f64::from(x).abs()).sum::<f64>() / fd_grey.len().max(1) as f64;
+    let ok =
+        |i: usize| f64::from(difference[i]).abs() <= 4.0 * f64::from(ad_se[i]) + 1e-3 * all_scale;
+    let share = |pixels: &mut dyn Iterator<Item = usize>| {
+        let (mut n, mut good) = (0usize, 0usize);
+        for i in pixels {
+            n += 1;
+            good += usize::from(ok(i));
+        }
+        if n == 0 {
+            1.0
+        } else {
+            good as f64 / n as f64
+        }
+    };
+    let within_4se = share(&mut (0..edges.len()));
+    let within_4se_edges = share(&mut (0..edges.len()).filter(|&i| edges[i]));
     let mean_rel_error = if fd.image_mean == 0.0 {
         if ad_mean == 0.0 {
             0.0
@@ -421,6 +483,8 @@ pub fn compare(ad_grey: &[f32], ad_mean: f64, fd: &Difference, edges: &[bool]) -
         edge_fraction: edges.iter().filter(|&&e| e).count() as f64 / edges.len().max(1) as f64,
         interior_error: [p[0], p[1], p[2]],
         difference,
+        within_4se,
+        within_4se_edges,
     }
 }
 
@@ -444,5 +508,11 @@ pub fn check_param(
     let p = &g.params[i];
     let fd = central_difference(path, text, file, overrides, p, h, integrator, threads)?;
     let edges = edge_mask(&[scene, &fd.scenes[0], &fd.scenes[1]], &fd);
-    Ok(compare(&g.grey(i), g.image_mean(i).0, &fd, &edges))
+    Ok(compare(
+        &g.grey(i),
+        &g.grey_se(i),
+        g.image_mean(i).0,
+        &fd,
+        &edges,
+    ))
 }

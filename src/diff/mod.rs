@@ -7,6 +7,8 @@
 //!   with those parameters: a [`crate::scene::View`] the integrators run on
 //!   unchanged.
 //! - [`render`]: the gradient render, per pixel, with sample variances.
+//! - [`boundary`]: the boundary term at silhouettes and shadow edges, by
+//!   edge sampling (`--visibility full`).
 //! - [`check`]: central finite differences, the check, and the edge mask.
 //! - [`optimize`]: inverse rendering, gradient descent on a loss against a
 //!   target image (`raylab optimize`).
@@ -34,14 +36,16 @@
 //! direction) is a reparameterisation: the sample moves with the
 //! parameters for fixed numbers, and its density is differentiated with it.
 
+pub mod boundary;
 pub mod check;
 pub mod optimize;
 pub mod params;
 pub mod render;
 pub mod view;
 
+pub use boundary::{BoundaryStats, Visibility};
 pub use check::{
-    central_difference, check_param, check_step, compare, default_step, edge_mask,
+    central_difference, check_param, check_step, compare, default_step, difference_step, edge_mask,
     scene_text_with_all, Comparison, Difference,
 };
 pub use params::{resolve, resolve_all, Entity, Param};

@@ -12,9 +12,14 @@
 //! with its sample variance: the derivative of the pixel estimator, an
 //! unbiased estimate of the *interior* derivative (see [`super`]).
 //!
+//! With [`Visibility::Full`] (the default of `raylab grad`) each pass then
+//! adds the boundary term ([`super::boundary`]) on the same duals, with
+//! about as many samples per pixel of curve length as the pixels have.
+//!
 //! Parameters are taken K at a time with K ∈ {1, 2, 4, 8, 16} (the smallest
 //! that holds them); more than 16 run in several passes.
 
+use super::boundary::{boundary_term, Boundary, Visibility};
 use super::params::Param;
 use super::view::DualScene;
 use crate::film::Filter;
@@ -39,17 +44,22 @@ pub struct Gradients {
     pub height: u32,
     pub params: Vec<Param>,
     /// Per parameter, per pixel and channel (row-major, RGB interleaved):
-    /// the mean over the pixel's samples of ∂sample/∂param.
+    /// the mean over the pixel's samples of ∂sample/∂param, plus (with
+    /// `Full` visibility) the boundary term.
     pub mean: Vec<Vec<f32>>,
-    /// The same layout: the unbiased sample variance of ∂sample/∂param
-    /// (divide by `count` for the variance of the pixel's mean).
+    /// The same layout: `count` × the variance of the pixel's estimate
+    /// (divide by `count` for that variance). With `Interior` visibility
+    /// this is the unbiased sample variance of ∂sample/∂param.
     pub variance: Vec<Vec<f32>>,
-    /// Per parameter, per pixel: the sample variance of the derivative of
-    /// the sample's channel mean (R+G+B)/3, for the standard error of the
-    /// image mean's derivative.
+    /// Per parameter, per pixel: the same for the channel mean (R+G+B)/3,
+    /// for the standard error of the image mean's derivative.
     pub variance_grey: Vec<Vec<f32>>,
     /// Samples per pixel.
     pub count: u32,
+    pub visibility: Visibility,
+    /// The boundary term alone (already in `mean`): empty planes and no
+    /// samples with `Interior` visibility.
+    pub boundary: Boundary,
 }
 
 impl Gradients {
@@ -66,6 +76,15 @@ impl Gradients {
             .sum::<f64>()
             / f64::from(self.count.max(1));
         (mean, var.sqrt() / n)
+    }
+
+    /// The standard error of [`Gradients::grey`] per pixel.
+    pub fn grey_se(&self, i: usize) -> Vec<f32> {
+        let m = self.count.max(1) as f32;
+        self.variance_grey[i]
+            .iter()
+            .map(|&v| (v / m).sqrt())
+            .collect()
     }
 
     /// Parameter `i`'s derivative per pixel, averaged over the channels.
@@ -106,13 +125,15 @@ pub fn check_supported(scene: &Scene, integrator: &IntegratorKind) -> Result<(),
 
 /// Render the derivatives of `scene` (loaded from `file`, read from `path`)
 /// with respect to `params` with `integrator`, on `threads` threads (`None`:
-/// all cores). The result is the same on any number of threads.
+/// all cores): the interior derivative, plus the boundary term with
+/// `Full` visibility. The result is the same on any number of threads.
 pub fn render_gradients(
     scene: &Scene,
     file: &SceneFile,
     path: &Path,
     params: &[Param],
     integrator: IntegratorKind,
+    visibility: Visibility,
     threads: Option<usize>,
 ) -> Result<Gradients, String> {
     check_supported(scene, &integrator)?;
@@ -125,23 +146,61 @@ pub fn render_gradients(
         variance: Vec::new(),
         variance_grey: Vec::new(),
         count: scene.settings.sampler.spp(),
+        visibility,
+        boundary: Boundary::default(),
     };
     for chunk in params.chunks(MAX_K) {
-        let part = match chunk.len() {
-            1 => pass::<1>(scene, file, path, chunk, integrator, threads)?,
-            2 => pass::<2>(scene, file, path, chunk, integrator, threads)?,
-            3 | 4 => pass::<4>(scene, file, path, chunk, integrator, threads)?,
-            5..=8 => pass::<8>(scene, file, path, chunk, integrator, threads)?,
-            _ => pass::<16>(scene, file, path, chunk, integrator, threads)?,
+        let run = (scene, file, path, chunk, integrator, visibility, threads);
+        let (mut mean, mut variance, mut grey, boundary) = match chunk.len() {
+            1 => pass::<1>(run)?,
+            2 => pass::<2>(run)?,
+            3 | 4 => pass::<4>(run)?,
+            5..=8 => pass::<8>(run)?,
+            _ => pass::<16>(run)?,
         };
-        out.mean.extend(part.0);
-        out.variance.extend(part.1);
-        out.variance_grey.extend(part.2);
+        if let Some(b) = boundary {
+            let m = out.count as f32;
+            for k in 0..chunk.len() {
+                add(&mut mean[k], &b.mean[k], 1.0);
+                add(&mut variance[k], &b.variance[k], m);
+                add(&mut grey[k], &b.variance_grey[k], m);
+            }
+            out.boundary.extend(b);
+        }
+        out.mean.extend(mean);
+        out.variance.extend(variance);
+        out.variance_grey.extend(grey);
     }
     Ok(out)
 }
 
-type Planes = (Vec<Vec<f32>>, Vec<Vec<f32>>, Vec<Vec<f32>>);
+/// a += s·b, element by element.
+fn add(a: &mut [f32], b: &[f32], s: f32) {
+    for (x, y) in a.iter_mut().zip(b) {
+        *x += s * y;
+    }
+}
+
+/// The interior planes (mean, variance, grey variance) and, with `Full`
+/// visibility, the boundary term.
+type Planes = (
+    Vec<Vec<f32>>,
+    Vec<Vec<f32>>,
+    Vec<Vec<f32>>,
+    Option<Boundary>,
+);
+
+/// What one pass needs: the scene, its file and path, the parameters, the
+/// integrator, the visibility and the threads.
+type Run<'a> = (
+    &'a Scene,
+    &'a SceneFile,
+    &'a Path,
+    &'a [Param],
+    IntegratorKind,
+    Visibility,
+    Option<usize>,
+);
 
 /// Running sums of one pixel's samples' partials.
 struct PixelSums<const K: usize> {
@@ -152,12 +211,7 @@ struct PixelSums<const K: usize> {
 
 /// One pass with K-wide duals for `params` (≤ K of them).
 fn pass<const K: usize>(
-    scene: &Scene,
-    file: &SceneFile,
-    path: &Path,
-    params: &[Param],
-    integrator: IntegratorKind,
-    threads: Option<usize>,
+    (scene, file, path, params, integrator, visibility, threads): Run<'_>,
 ) -> Result<Planes, String> {
     let view = DualScene::<K>::new(scene, file, path, params)?;
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
@@ -238,11 +292,13 @@ fn pass<const K: usize>(
             grey[k].push(v[6]);
         }
     }
-    Ok((mean, variance, grey))
+    let boundary = (visibility == Visibility::Full)
+        .then(|| boundary_term(&view, params, &integrator, spp as f32, seed, threads));
+    Ok((mean, variance, grey, boundary))
 }
 
 /// One sample's radiance through the chosen integrator on `view`.
-fn radiance<V: View>(
+pub(super) fn radiance<V: View>(
     view: &V,
     integrator: &IntegratorKind,
     ray: &crate::math::RayR<V::R>,

@@ -323,6 +323,22 @@ impl<'a, const K: usize> DualScene<'a, K> {
         }
     }
 
+    /// The camera frame over dual numbers.
+    pub fn frame(&self) -> &Frame<Dual<K>> {
+        &self.camera
+    }
+
+    /// Whether some parameter moves scene object `object`.
+    pub fn moves(&self, object: u32) -> bool {
+        self.objects[object as usize].is_some()
+    }
+
+    /// Primitive `prim`'s geometry as a function of the parameters.
+    pub fn geometry(&self, prim: u32) -> ShapeR<Dual<K>> {
+        let object = self.scene.prims[prim as usize].object;
+        self.shape(prim, object).0
+    }
+
     /// Area of primitive `prim`'s shape: as a dual, and its value.
     fn area(&self, prim: u32) -> Dual<K> {
         let object = self.scene.prims[prim as usize].object;

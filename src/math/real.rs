@@ -279,6 +279,18 @@ impl<R: Real> M3<R> {
             self.rows[2].dot(v),
         )
     }
+    /// M⁻¹ by the adjugate (rows of the inverse are the cross products of
+    /// the columns' pairs over det M); `None` when M is singular by value.
+    pub fn inverse(&self) -> Option<Self> {
+        let c = self.transpose().rows;
+        let (r0, r1, r2) = (c[1].cross(c[2]), c[2].cross(c[0]), c[0].cross(c[1]));
+        let det = c[0].dot(r0);
+        if det.value() == 0.0 || !det.value().is_finite() {
+            return None;
+        }
+        let inv = R::one() / det;
+        Some(Self::from_rows(r0 * inv, r1 * inv, r2 * inv))
+    }
     /// M·N.
     pub fn mul_mat(&self, o: &Self) -> Self {
         let t = o.transpose();

@@ -10,6 +10,7 @@
 //! scene = "../../data/scenes/cornell-box.toml"
 //! description = "The Cornell box's wall colours from one image."
 //! integrator = "path:3"      # whitted (default), direct, path:K
+//! visibility = "full"        # full (default) or interior: the boundary term or not
 //! sampler = "random:4"       # each iteration's gradient render (default random:4)
 //! image_sampler = "random:16"  # its plain render (default: `sampler`)
 //! iterations = 200
@@ -459,6 +460,7 @@ impl Problem {
             &self.spec.scene,
             &params,
             self.spec.integrator,
+            self.spec.visibility,
             threads,
         )?;
         scene.settings.seed = seed_of(self.spec.seed, u64::from(i), PRIMAL);

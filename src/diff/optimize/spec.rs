@@ -28,6 +28,7 @@ struct SpecFile {
     #[serde(default)]
     description: String,
     integrator: Option<Spanned<String>>,
+    visibility: Option<Spanned<String>>,
     sampler: Option<Spanned<String>>,
     image_sampler: Option<Spanned<String>>,
     snapshot_sampler: Option<Spanned<String>>,
@@ -118,6 +119,8 @@ pub struct Spec {
     /// …and its text as checked.
     pub scene_text: String,
     pub integrator: IntegratorKind,
+    /// The gradient's visibility term: `full` (default) or `interior`.
+    pub visibility: diff::Visibility,
     /// Samples of each iteration's gradient render.
     pub sampler: Sampler,
     /// Samples of each iteration's plain render (the image whose loss is
@@ -205,6 +208,10 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<Spec, InputError> {
     let integrator: IntegratorKind = match &file.integrator {
         Some(s) => named(s, IntegratorKind::parse)?,
         None => IntegratorKind::Whitted,
+    };
+    let visibility = match &file.visibility {
+        Some(s) => diff::Visibility::parse(s.get_ref()).map_err(|e| at(s.span(), e))?,
+        None => diff::Visibility::Full,
     };
     let sampler_of =
         |s: &Option<Spanned<String>>, default: Sampler| -> Result<Sampler, InputError> {
@@ -330,6 +337,7 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<Spec, InputError> {
         scene,
         scene_text,
         integrator,
+        visibility,
         sampler,
         image_sampler,
         snapshot_sampler,

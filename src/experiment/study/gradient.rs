@@ -196,6 +196,56 @@ pub struct GradientRow {
     pub image: String,
 }
 
+/// The integrator of a derivative study: `whitted` by default, any but
+/// flood fill, without Russian roulette when `roulette` is false.
+pub(super) fn differentiable_integrator(
+    integrator: Option<IntegratorKind>,
+    roulette: Option<bool>,
+) -> Result<IntegratorKind, ParamError> {
+    let integrator = integrator.unwrap_or(IntegratorKind::Whitted);
+    if let IntegratorKind::FloodFill(_) = integrator {
+        return Err(ParamError::new(
+            "integrator",
+            "derivatives are rendered for `whitted`, `direct` or `path:K`",
+        ));
+    }
+    Ok(if roulette == Some(false) {
+        integrator.with_rr_start(None)
+    } else {
+        integrator
+    })
+}
+
+/// A finite-difference step parameter `name`: absent, or positive.
+pub(super) fn positive_step(name: &'static str, v: Option<f64>) -> Result<Option<f32>, ParamError> {
+    match v {
+        None => Ok(None),
+        Some(h) if h > 0.0 && h.is_finite() => Ok(Some(h as f32)),
+        Some(h) => Err(ParamError::new(
+            name,
+            format!("must be a positive number, got {h}"),
+        )),
+    }
+}
+
+/// The scene overrides of a derivative study's run.
+pub(super) fn run_overrides(
+    resolution: Option<Resolution>,
+    sampler: Option<Sampler>,
+    accel: Option<AccelKind>,
+    seed: Option<u64>,
+) -> Overrides {
+    Overrides {
+        width: resolution.map(|r| r.width),
+        height: resolution.map(|r| r.height),
+        sampler,
+        filter: None,
+        accel,
+        max_depth: None,
+        seed,
+    }
+}
+
 /// The first `k` components of the scene's material colours, then light
 /// intensities, then light positions: a pool for cost measurements.
 fn pool(file: &SceneFile, k: usize) -> Result<Vec<Param>, String> {
@@ -224,16 +274,7 @@ impl Study for Gradient {
 
     fn configure(&self, p: GradientParams, base_dir: &Path) -> Result<Config, ParamError> {
         let scene = scene_file(base_dir, &p.scene)?;
-        let mut integrator = p.integrator.unwrap_or(IntegratorKind::Whitted);
-        if let IntegratorKind::FloodFill(_) = integrator {
-            return Err(ParamError::new(
-                "integrator",
-                "the gradient study runs `whitted`, `direct` or `path:K`",
-            ));
-        }
-        if p.roulette == Some(false) {
-            integrator = integrator.with_rr_start(None);
-        }
+        let integrator = differentiable_integrator(p.integrator, p.roulette)?;
         let what = match (p.param, p.cost_params) {
             (Some(name), None) => What::One(name),
             (None, Some(k)) => What::Count(k.get() as usize),
@@ -248,28 +289,11 @@ impl Study for Gradient {
         if check && matches!(what, What::Count(_)) {
             return Err(ParamError::new("check", "`check` needs `param`"));
         }
-        let step = match p.step {
-            None => None,
-            Some(h) if h > 0.0 && h.is_finite() => Some(h as f32),
-            Some(h) => {
-                return Err(ParamError::new(
-                    "step",
-                    format!("must be a positive number, got {h}"),
-                ))
-            }
-        };
+        let step = positive_step("step", p.step)?;
         Ok(Config {
             scene,
             integrator,
-            overrides: Overrides {
-                width: p.resolution.map(|r| r.width),
-                height: p.resolution.map(|r| r.height),
-                sampler: p.sampler,
-                filter: None,
-                accel: p.accel,
-                max_depth: None,
-                seed: p.seed,
-            },
+            overrides: run_overrides(p.resolution, p.sampler, p.accel, p.seed),
             what,
             check,
             step,
@@ -312,6 +336,7 @@ impl Study for Gradient {
                 &cfg.scene,
                 &params,
                 cfg.integrator,
+                diff::Visibility::Interior,
                 None,
             ));
         });

@@ -25,6 +25,7 @@ pub mod gi_quality;
 #[cfg(feature = "gpu")]
 pub mod gpu_speed;
 pub mod gradient;
+pub mod gradient_estimators;
 pub mod registry;
 pub mod render_cost;
 pub mod timing;

@@ -5,7 +5,8 @@
 //! reference page describing it).
 
 use super::{
-    aa_images, aa_patterns, accel_cost, accel_speed, floodfill, gi_quality, gradient, render_cost,
+    aa_images, aa_patterns, accel_cost, accel_speed, floodfill, gi_quality, gradient,
+    gradient_estimators, render_cost,
 };
 use super::{DynStudy, ParamDoc};
 
@@ -104,6 +105,15 @@ pub static KINDS: &[StudyKind] = &[
                   error against central finite differences",
         examples: &["analysis/gradients.toml"],
         study: &gradient::Gradient,
+    },
+    StudyKind {
+        name: "gradient_estimators",
+        summary: "estimators of an image's derivative side by side (interior, interior + \
+                  boundary term, finite differences): bias against a converged reference, \
+                  standard error against spp, cost per sample, efficiency at equal time, \
+                  and per-pixel standard-deviation maps",
+        examples: &["analysis/gradient-estimators.toml"],
+        study: &gradient_estimators::GradientEstimators,
     },
     StudyKind {
         name: "floodfill",

@@ -1,0 +1,548 @@
+//! The boundary term of an image's derivative: what forward mode through
+//! fixed samples misses when a parameter moves a silhouette or a shadow
+//! edge ([`super`]), estimated by sampling the edges themselves.
+//!
+//! **The term.** A pixel P of the box filter is the mean of the radiance
+//! f(x, θ) over its square, I_P = ∫_P f dx (film coordinates in pixels, so
+//! the square has area 1). Where f jumps across a curve x(t, θ) that moves
+//! with θ, Reynolds' transport theorem adds to the interior derivative
+//! ∫_P ∂f/∂θ dx the line integral
+//!
+//! ∫_{curve ∩ P} (f⁻ − f⁺) (∂x/∂θ · n) dℓ,
+//!
+//! with n a unit normal of the curve and f⁺, f⁻ the radiance just on the
+//! side n points to and just on the other: when the curve moves towards
+//! n, film that saw f⁺ now sees f⁻.
+//!
+//! **The estimator** (edge sampling, after Li, Aittala, Durand & Lehtinen,
+//! "Differentiable Monte Carlo ray tracing through edge sampling", 2018).
+//! Each discontinuity curve is a 3-D curve s(t), t ∈ [0, 1), mapped to the
+//! film: x(t) = project(s(t)) for what the camera sees directly, or
+//! project(q(t)) for a shadow edge, q(t) the first surface behind s(t)
+//! on the ray from a point light through it. A sample draws t uniformly,
+//! evaluates f⁺ and f⁻ with the pixel's own integrator on camera rays at
+//! x ± ε·n (ε = [`OFFSET_PX`]), and contributes to the pixel holding x
+//!
+//! (f⁻ − f⁺) · (∂x/∂θ · ⊥(dx/dt)),   ⊥(a, b) = (−b, a),
+//!
+//! which is the integrand above times |dx/dt| over the density 1 of t: the
+//! change of variables from film arc length to t. Both derivatives come
+//! from forward mode: ∂x/∂θ from the curve built on the K-wide duals of
+//! the [`DualScene`] (the silhouette moves with the sphere, the eye, the
+//! light), dx/dt from the same formulas on a one-wide dual seeded with t.
+//! The two radiance values share their random numbers, so what they have
+//! in common cancels. Occlusion needs no test of its own: where something
+//! hides the curve, both rays see the same thing and the difference is 0.
+//! The expectation is the line integral for every pixel the curve
+//! crosses, so interior + boundary is an unbiased estimate of the whole
+//! derivative, up to the offset ε: f± are taken ε pixels from the curve
+//! (smooth shading there differs from its limit by O(ε), at a sphere's
+//! silhouette by O(√ε) relative to the curvature radius in pixels). A
+//! shadow edge is placed where the renderer's shadow rays put it: they
+//! start a small offset off the surface, which shifts the edge by up to a
+//! few hundredths of a pixel, more than ε ([`on_film`]).
+//!
+//! **The curves** ([`curves`]): the silhouette of a sphere or an ellipsoid
+//! from a point is a circle or an ellipse in closed form, so it is
+//! sampled exactly, not as a polygon. A mesh contributes its border edges,
+//! its silhouette edges (faces on both sides of the viewpoint) and, seen
+//! from the eye, its creases where flat shading jumps. The viewpoints are
+//! the eye (silhouettes and creases, moving with the object or the camera)
+//! and every point light the integrator uses (shadow edges, moving with
+//! the occluder, the light, the receiver or the camera).
+//!
+//! **Why edge sampling.** raylab's primitives have exact silhouettes, and
+//! edge sampling turns each into a 1-D integral whose estimate is unbiased
+//! and whose cost is two radiance evaluations per sample, reported apart
+//! ([`BoundaryStats`]). Reparameterisation (Loubet, Holzschuch & Jakob
+//! 2019) is biased where its warp is not exact; warped-area sampling
+//! (Bangaru, Li & Durand 2020) is unbiased but estimates its warp field
+//! with further rays in every sample; projective sampling (Zhang, Roussel &
+//! Jakob 2023) pays off for edges seen from many shading
+//! points, which the curves here are not.
+//!
+//! **Not covered** (left to the interior derivative, hence biased where
+//! they act): edges seen in mirrors or through glass and edges met by
+//! later bounces of a path (secondary visibility), shadow edges of area
+//! lights (soft shadows move inside each shading point's integral over the
+//! light), a plane's horizon, and curves where surfaces pass through each
+//! other.
+
+pub mod curves;
+
+use super::params::{Entity, Param};
+use super::render::radiance;
+use super::view::DualScene;
+use crate::camera::Frame;
+use crate::integrator::{in_pool, IntegratorKind, SampleContext};
+use crate::math::{max_abs, Dual, Ray, RayR, Real, SplitMix64, Vec3, V3};
+use crate::scene::{Scene, View};
+use crate::shape::{Hit, HitR, Shape, ShapeR, OFFSET_SCALE};
+use crate::stats::NoStats;
+use curves::{edge_curve, edge_matters, mesh_edges, smooth_silhouette, Curve};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::time::Instant;
+
+/// Distance in pixels from the curve at which f⁺ and f⁻ are evaluated:
+/// far enough above `f32` round-off of film positions (about 10⁻⁵ px) and
+/// of the curve itself (about 10⁻⁴ px) to land on the right side, near
+/// enough that the radiance there is its limit at the curve.
+pub const OFFSET_PX: f32 = 1e-3;
+
+/// Curve points traced to estimate a curve's length on the film.
+const LENGTH_POINTS: usize = 32;
+
+/// Which derivative is computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Visibility {
+    /// Forward mode through fixed samples only: biased where parameters
+    /// move silhouettes or shadow edges.
+    Interior,
+    /// Interior plus the boundary term: the whole derivative.
+    #[default]
+    Full,
+}
+
+impl Visibility {
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "interior" => Ok(Self::Interior),
+            "full" => Ok(Self::Full),
+            _ => Err(format!(
+                "unknown visibility `{s}` (expected `interior` or `full`)"
+            )),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Interior => "interior",
+            Self::Full => "full",
+        }
+    }
+}
+
+/// What the boundary term sampled and what it cost.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BoundaryStats {
+    /// Curves sampled: silhouettes and creases seen from the eye, and
+    /// silhouettes seen from point lights (shadow edges).
+    pub primary_curves: u64,
+    pub shadow_curves: u64,
+    /// Curve samples drawn, and those that landed on the film where the
+    /// curve moves (the others contribute 0 without a radiance evaluation).
+    pub samples: u64,
+    pub landed: u64,
+    /// Rays from point lights past a curve (to find shadow edges, for the
+    /// samples and for the curves' film lengths), and radiance evaluations
+    /// (two per landed sample, each a camera ray and all that follows it).
+    pub light_rays: u64,
+    pub evaluations: u64,
+    /// Wall time of the boundary term, seconds.
+    pub seconds: f64,
+}
+
+impl BoundaryStats {
+    fn add(&mut self, o: &Self) {
+        self.primary_curves += o.primary_curves;
+        self.shadow_curves += o.shadow_curves;
+        self.samples += o.samples;
+        self.landed += o.landed;
+        self.light_rays += o.light_rays;
+        self.evaluations += o.evaluations;
+        self.seconds += o.seconds;
+    }
+}
+
+/// The boundary term of each pixel's derivative for some parameters.
+#[derive(Clone, Debug, Default)]
+pub struct Boundary {
+    /// Per parameter, per pixel and channel (row-major, RGB interleaved).
+    pub mean: Vec<Vec<f32>>,
+    /// The same layout: the variance of the pixel's estimate.
+    pub variance: Vec<Vec<f32>>,
+    /// Per parameter, per pixel: the variance of the channel mean's
+    /// estimate.
+    pub variance_grey: Vec<Vec<f32>>,
+    pub stats: BoundaryStats,
+}
+
+impl Boundary {
+    /// Another pass's parameters after these; the stats summed.
+    pub fn extend(&mut self, o: Boundary) {
+        self.mean.extend(o.mean);
+        self.variance.extend(o.variance);
+        self.variance_grey.extend(o.variance_grey);
+        self.stats.add(&o.stats);
+    }
+}
+
+/// Whether `p` can move a silhouette or a shadow edge.
+pub fn is_geometric(p: &Param) -> bool {
+    match p.entity {
+        Entity::Sphere(_) | Entity::Ellipsoid(_) | Entity::Triangle(_) | Entity::Mesh(_) => true,
+        Entity::Camera => true,
+        Entity::Light(_) => p.field == "position",
+        Entity::Plane(_) | Entity::Render | Entity::Material(_) => false,
+    }
+}
+
+/// One curve to sample: where it lies, seen from the eye (`light` None)
+/// or from point light `light`, and how many samples it gets.
+struct Job<const K: usize> {
+    curve: Curve<Dual<K>>,
+    light: Option<usize>,
+    samples: u32,
+}
+
+/// One pixel's running sums over a curve's samples.
+struct Sums<const K: usize> {
+    s1: [[f64; 3]; K],
+    s2: [[f64; 3]; K],
+    g1: [f64; K],
+    g2: [f64; K],
+}
+
+/// What a curve adds: per touched pixel, per parameter the mean, the
+/// variance of the mean per channel and of the channel mean.
+type CurveResult<const K: usize> = (
+    Vec<(usize, [[f32; 3]; K], [[f32; 3]; K], [f32; K])>,
+    BoundaryStats,
+);
+
+/// The boundary term for `params` (at most K, the parameters seeded in
+/// `view`) with `integrator`, drawing about `density` samples per pixel of
+/// curve length on the film, seeded by `seed`, on `threads` threads. The
+/// result does not depend on the number of threads.
+pub fn boundary_term<const K: usize>(
+    view: &DualScene<'_, K>,
+    params: &[Param],
+    integrator: &IntegratorKind,
+    density: f32,
+    seed: u64,
+    threads: Option<usize>,
+) -> Boundary {
+    let start = Instant::now();
+    let scene = view.scene();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let n = params.len();
+    let mut out = Boundary {
+        mean: vec![vec![0.0; (w * h * 3) as usize]; n],
+        variance: vec![vec![0.0; (w * h * 3) as usize]; n],
+        variance_grey: vec![vec![0.0; (w * h) as usize]; n],
+        stats: BoundaryStats::default(),
+    };
+    if !params.iter().any(is_geometric) {
+        return out;
+    }
+    let jobs = collect_curves(view, params, integrator, density, &mut out.stats);
+    let seed = SplitMix64::mix(seed ^ 0xB0DA_7E55_ED6E_u64);
+    let results: Vec<CurveResult<K>> = in_pool(threads, || {
+        jobs.par_iter()
+            .enumerate()
+            .map(|(j, job)| {
+                sample_curve(view, job, n, integrator, SplitMix64::mix(seed ^ j as u64))
+            })
+            .collect()
+    });
+    for (pixels, stats) in results {
+        out.stats.add(&stats);
+        for (pixel, mean, var, grey) in pixels {
+            for k in 0..n {
+                for c in 0..3 {
+                    out.mean[k][3 * pixel + c] += mean[k][c];
+                    out.variance[k][3 * pixel + c] += var[k][c];
+                }
+                out.variance_grey[k][pixel] += grey[k];
+            }
+        }
+    }
+    out.stats.seconds = start.elapsed().as_secs_f64();
+    out
+}
+
+/// The curves that can move on the film for these parameters, each with
+/// its number of samples.
+fn collect_curves<const K: usize>(
+    view: &DualScene<'_, K>,
+    params: &[Param],
+    integrator: &IntegratorKind,
+    density: f32,
+    stats: &mut BoundaryStats,
+) -> Vec<Job<K>> {
+    let scene = view.scene();
+    let camera = params.iter().any(|p| p.entity == Entity::Camera);
+    let any_object = (0..scene.objects.len() as u32).any(|o| view.moves(o));
+    let whitted = matches!(integrator, IntegratorKind::Whitted);
+    // Viewpoints: the eye, then the point lights the integrator uses.
+    let mut viewpoints: Vec<(Option<usize>, V3<Dual<K>>, bool)> = Vec::new();
+    viewpoints.push((None, view.frame().eye, camera));
+    for (i, l) in scene.lights.iter().enumerate() {
+        if l.whitted_only && !whitted {
+            continue;
+        }
+        let position = view.point_light(i).0;
+        let moves = position
+            .x
+            .d
+            .iter()
+            .chain(&position.y.d)
+            .chain(&position.z.d)
+            .any(|&d| d != 0.0);
+        viewpoints.push((Some(i), position, moves || camera || any_object));
+    }
+    let edges = mesh_edges(scene);
+    let mut jobs = Vec::new();
+    for (light, o, all) in viewpoints {
+        let include = |object: u32| all || view.moves(object);
+        let mut curves = Vec::new();
+        for (prim, p) in scene.prims.iter().enumerate() {
+            let smooth = matches!(p.shape, Shape::Sphere(_) | Shape::Ellipsoid(_));
+            if smooth && include(p.object) {
+                if let Some(c) = smooth_silhouette(&view.geometry(prim as u32), o) {
+                    curves.push(c);
+                }
+            }
+        }
+        for e in &edges {
+            let object = scene.prims[e.faces[0] as usize].object;
+            if include(object) && edge_matters(scene, e, o.value(), light.is_none()) {
+                curves.push(edge_curve(e, |prim, corner| match view.geometry(prim) {
+                    ShapeR::Triangle { p } => p[corner],
+                    _ => unreachable!("mesh edges join triangles"),
+                }));
+            }
+        }
+        for curve in curves {
+            let length = film_length(view, &curve, light, stats);
+            let samples = (density * length).ceil().clamp(2.0, 1e7) as u32;
+            match light {
+                None => stats.primary_curves += 1,
+                Some(_) => stats.shadow_curves += 1,
+            }
+            jobs.push(Job {
+                curve,
+                light,
+                samples,
+            });
+        }
+    }
+    jobs
+}
+
+/// The ray from light position `l` through curve point `s`, continued past
+/// it to the first surface: that surface's hit, its distance measured from
+/// `l` (`None` when the ray leaves the scene).
+fn behind(scene: &Scene, l: Vec3, s: Vec3) -> Option<Hit> {
+    let d = s - l;
+    let dir = d.try_normalize()?;
+    let start = s + dir * (1e-4 * d.length().max(1e-3));
+    let hit = scene.intersect(
+        &Ray::new(start, dir),
+        scene.settings.max_distance,
+        &mut NoStats,
+    )?;
+    Some(Hit {
+        t: hit.t + (start - l).length(),
+        ..hit
+    })
+}
+
+/// Where the curve point `s` lies on the film: seen directly (`shadow`
+/// None), or the point of `receiver` hit at `hit` by the ray from light
+/// position `l` through `s`.
+fn on_film<R: Real>(
+    frame: &Frame<R>,
+    (w, h): (u32, u32),
+    s: V3<R>,
+    shadow: Option<(V3<R>, Hit, ShapeR<R>)>,
+) -> Option<(R, R)> {
+    let p = match shadow {
+        None => s,
+        Some((l, hit, receiver)) => {
+            let ray = RayR::new(l, (s - l).normalize());
+            let on = HitR::on(&receiver, None, &ray, hit);
+            // The renderer's shadow rays start ε along the normal
+            // ([`crate::shape::OFFSET_SCALE`]), which moves the shadow's
+            // edge: it is at the point p whose ray origin p + ε·n lies on
+            // the line from the light through s (exact for flat receivers).
+            let n = on.geometric_normal;
+            let eps = R::from_f32(OFFSET_SCALE * max_abs(on.point.value()).max(1.0));
+            let cos = -ray.dir.dot(n);
+            on.point - ray.dir * (eps / cos) - n * eps
+        }
+    };
+    frame.project(p, w, h)
+}
+
+/// The curve's length on the film in pixels, from [`LENGTH_POINTS`] points
+/// (the pieces with an end inside the film).
+fn film_length<const K: usize>(
+    view: &DualScene<'_, K>,
+    curve: &Curve<Dual<K>>,
+    light: Option<usize>,
+    stats: &mut BoundaryStats,
+) -> f32 {
+    let scene = view.scene();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let frame = scene.camera.frame();
+    let c = curve.map(|p| V3::<f32>::from_vec3(p.value()));
+    let l = light.map(|i| scene.lights[i].position);
+    let mut points = Vec::with_capacity(LENGTH_POINTS + 1);
+    for i in 0..=LENGTH_POINTS {
+        let s = c.point(i as f32 / LENGTH_POINTS as f32);
+        let shadow = match l {
+            None => None,
+            Some(l) => {
+                stats.light_rays += 1;
+                behind(scene, l, s.value()).map(|hit| {
+                    (
+                        V3::from_vec3(l),
+                        hit,
+                        ShapeR::of(&scene.prims[hit.prim as usize]),
+                    )
+                })
+            }
+        };
+        points.push(on_film(&frame, (w, h), s, shadow));
+    }
+    let inside =
+        |(x, y): (f32, f32)| x >= -1.0 && y >= -1.0 && x <= w as f32 + 1.0 && y <= h as f32 + 1.0;
+    points
+        .windows(2)
+        .filter_map(|p| match (p[0], p[1]) {
+            (Some(a), Some(b)) if inside(a) || inside(b) => Some(
+                ((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2))
+                    .sqrt()
+                    .min(4.0 * (w + h) as f32),
+            ),
+            _ => None,
+        })
+        .sum()
+}
+
+/// Draw `job.samples` points on one curve and return what they add to
+/// each pixel (the first `n` of the K parameters).
+fn sample_curve<const K: usize>(
+    view: &DualScene<'_, K>,
+    job: &Job<K>,
+    n: usize,
+    integrator: &IntegratorKind,
+    seed: u64,
+) -> CurveResult<K> {
+    let scene = view.scene();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let frame1: Frame<Dual<1>> = scene.camera.frame().lift();
+    let curve1 = job.curve.map(|p| V3::<Dual<1>>::from_vec3(p.value()));
+    let mut stats = BoundaryStats {
+        samples: u64::from(job.samples),
+        ..Default::default()
+    };
+    let mut rng = SplitMix64(seed);
+    let mut sums: HashMap<usize, Sums<K>> = HashMap::new();
+    let light = job.light.map(|i| view.point_light(i).0);
+    for index in 0..job.samples {
+        let t = rng.next_f32();
+        let s = job.curve.point(Dual::from_f32(t));
+        let s1 = curve1.point(Dual::<1>::variable(t, 0));
+        let hit = match light {
+            None => None,
+            Some(l) => {
+                stats.light_rays += 1;
+                match behind(scene, l.value(), s.value()) {
+                    Some(hit) => Some((l, hit)),
+                    None => continue,
+                }
+            }
+        };
+        let x = on_film(
+            view.frame(),
+            (w, h),
+            s,
+            hit.map(|(l, hit)| (l, hit, view.geometry(hit.prim))),
+        );
+        let x1 = on_film(
+            &frame1,
+            (w, h),
+            s1,
+            hit.map(|(l, hit)| {
+                let shape = ShapeR::of(&scene.prims[hit.prim as usize]);
+                (V3::from_vec3(l.value()), hit, shape)
+            }),
+        );
+        let (Some((x, y)), Some((x1, y1))) = (x, x1) else {
+            continue;
+        };
+        if !(x.v >= 0.0 && y.v >= 0.0 && x.v < w as f32 && y.v < h as f32) {
+            continue;
+        }
+        // ⊥(dx/dt): a normal of the curve on the film, |dx/dt| long.
+        let normal = (-y1.d[0], x1.d[0]);
+        let len = normal.0.hypot(normal.1);
+        if !(len > 0.0 && len.is_finite()) {
+            continue;
+        }
+        let speed: Vec<f32> = (0..n)
+            .map(|k| x.d[k] * normal.0 + y.d[k] * normal.1)
+            .collect();
+        if speed.iter().all(|&v| v == 0.0) {
+            continue;
+        }
+        stats.landed += 1;
+        stats.evaluations += 2;
+        let (px, py) = (x.v as u32, y.v as u32);
+        let ctx = SampleContext {
+            px,
+            py,
+            index,
+            seed,
+        };
+        let (ox, oy) = (OFFSET_PX * normal.0 / len, OFFSET_PX * normal.1 / len);
+        let f = |sign: f32| {
+            let ray = scene.camera_ray(x.v + sign * ox, y.v + sign * oy);
+            radiance(scene, integrator, &ray, &ctx)
+        };
+        let (plus, minus) = (f(1.0), f(-1.0));
+        let jump = [minus.x - plus.x, minus.y - plus.y, minus.z - plus.z].map(f64::from);
+        let e = sums.entry((py * w + px) as usize).or_insert(Sums {
+            s1: [[0.0; 3]; K],
+            s2: [[0.0; 3]; K],
+            g1: [0.0; K],
+            g2: [0.0; K],
+        });
+        for (k, &v) in speed.iter().enumerate() {
+            let v = f64::from(v);
+            for (c, &j) in jump.iter().enumerate() {
+                let g = j * v;
+                e.s1[k][c] += g;
+                e.s2[k][c] += g * g;
+            }
+            let g = (jump[0] + jump[1] + jump[2]) / 3.0 * v;
+            e.g1[k] += g;
+            e.g2[k] += g * g;
+        }
+    }
+    // The pixel's estimate is the mean over all the curve's samples (those
+    // that landed elsewhere count as 0), its variance that of a mean.
+    let m = f64::from(job.samples);
+    let var = |s1: f64, s2: f64| ((s2 - s1 * s1 / m) / (m * (m - 1.0))).max(0.0) as f32;
+    let mut pixels: Vec<_> = sums
+        .into_iter()
+        .map(|(pixel, e)| {
+            let mut mean = [[0.0f32; 3]; K];
+            let mut variance = [[0.0f32; 3]; K];
+            let mut grey = [0.0f32; K];
+            for k in 0..n {
+                for c in 0..3 {
+                    mean[k][c] = (e.s1[k][c] / m) as f32;
+                    variance[k][c] = var(e.s1[k][c], e.s2[k][c]);
+                }
+                grey[k] = var(e.g1[k], e.g2[k]);
+            }
+            (pixel, mean, variance, grey)
+        })
+        .collect();
+    pixels.sort_unstable_by_key(|p| p.0);
+    (pixels, stats)
+}
