@@ -19,6 +19,7 @@
 //! Parameters are taken K at a time with K ∈ {1, 2, 4, 8, 16} (the smallest
 //! that holds them); more than 16 run in several passes.
 
+use super::boundary::area::area_shadow_term;
 use super::boundary::{boundary_term, Boundary, Visibility};
 use super::params::Param;
 use super::view::DualScene;
@@ -292,8 +293,13 @@ fn pass<const K: usize>(
             grey[k].push(v[6]);
         }
     }
-    let boundary = (visibility == Visibility::Full)
-        .then(|| boundary_term(&view, params, &integrator, spp as f32, seed, threads));
+    let boundary = (visibility == Visibility::Full).then(|| {
+        let mut b = boundary_term(&view, params, &integrator, spp as f32, seed, threads);
+        if integrator == IntegratorKind::Direct {
+            b.absorb(area_shadow_term(&view, params, spp, seed, threads));
+        }
+        b
+    });
     Ok((mean, variance, grey, boundary))
 }
 

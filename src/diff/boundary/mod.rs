@@ -40,7 +40,7 @@
 //! silhouette by O(√ε) relative to the curvature radius in pixels). A
 //! shadow edge is placed where the renderer's shadow rays put it: they
 //! start a small offset off the surface, which shifts the edge by up to a
-//! few hundredths of a pixel, more than ε ([`on_film`]).
+//! few hundredths of a pixel, more than ε (see `on_film`).
 //!
 //! **The curves** ([`curves`]): the silhouette of a sphere or an ellipsoid
 //! from a point is a circle or an ellipse in closed form, so it is
@@ -61,13 +61,19 @@
 //! Jakob 2023) pays off for edges seen from many shading
 //! points, which the curves here are not.
 //!
+//! **Area lights** ([`area`]): under `direct`, soft shadows move inside
+//! each shading point's integral over the emitters; that term is sampled
+//! there, from the camera ray's hit.
+//!
 //! **Not covered** (left to the interior derivative, hence biased where
 //! they act): edges seen in mirrors or through glass and edges met by
-//! later bounces of a path (secondary visibility), shadow edges of area
-//! lights (soft shadows move inside each shading point's integral over the
-//! light), a plane's horizon, and curves where surfaces pass through each
+//! later bounces of a path (secondary visibility, which for `path:K`
+//! includes the soft shadows at every vertex and every silhouette in front
+//! of indirect light), an emitter's own motion inside the integral over
+//! it, a plane's horizon, and curves where surfaces pass through each
 //! other.
 
+pub mod area;
 pub mod curves;
 
 use super::params::{Entity, Param};
@@ -130,12 +136,18 @@ pub struct BoundaryStats {
     /// silhouettes seen from point lights (shadow edges).
     pub primary_curves: u64,
     pub shadow_curves: u64,
-    /// Curve samples drawn, and those that landed on the film where the
-    /// curve moves (the others contribute 0 without a radiance evaluation).
+    /// Curve samples drawn, and those that contributed: landed on the film
+    /// where the curve moves (the others contribute 0 without a radiance
+    /// evaluation), or for the area-light term found an emitter behind a
+    /// silhouette with its visibility changing across it.
     pub samples: u64,
     pub landed: u64,
+    /// `direct`'s area-light term: film samples drawn (each a shading
+    /// point whose integral over the emitters gets one silhouette sample).
+    pub shading_points: u64,
     /// Rays from point lights past a curve (to find shadow edges, for the
-    /// samples and for the curves' film lengths), and radiance evaluations
+    /// samples and for the curves' film lengths; for the area-light term,
+    /// the rays from the shading point), and radiance evaluations
     /// (two per landed sample, each a camera ray and all that follows it).
     pub light_rays: u64,
     pub evaluations: u64,
@@ -148,6 +160,7 @@ impl BoundaryStats {
         self.primary_curves += o.primary_curves;
         self.shadow_curves += o.shadow_curves;
         self.samples += o.samples;
+        self.shading_points += o.shading_points;
         self.landed += o.landed;
         self.light_rays += o.light_rays;
         self.evaluations += o.evaluations;
@@ -169,6 +182,23 @@ pub struct Boundary {
 }
 
 impl Boundary {
+    /// Another term for the same parameters added in; the stats summed.
+    pub fn absorb(&mut self, o: Boundary) {
+        let planes = [
+            (&mut self.mean, o.mean),
+            (&mut self.variance, o.variance),
+            (&mut self.variance_grey, o.variance_grey),
+        ];
+        for (mine, theirs) in planes {
+            for (a, b) in mine.iter_mut().zip(theirs) {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += y;
+                }
+            }
+        }
+        self.stats.add(&o.stats);
+    }
+
     /// Another pass's parameters after these; the stats summed.
     pub fn extend(&mut self, o: Boundary) {
         self.mean.extend(o.mean);
