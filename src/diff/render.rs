@@ -295,7 +295,8 @@ fn pass<const K: usize>(
     }
     let boundary = (visibility == Visibility::Full).then(|| {
         let mut b = boundary_term(&view, params, &integrator, spp as f32, seed, threads);
-        if integrator == IntegratorKind::Direct {
+        // Direct lighting only (`direct`, `path:0`): see `area`.
+        if integrator.path_tracer().is_some_and(|p| p.max_bounces == 0) {
             b.absorb(area_shadow_term(&view, params, spp, seed, threads));
         }
         b

@@ -60,12 +60,7 @@ pub fn area_shadow_term<const K: usize>(
     let scene = view.scene();
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     let n = params.len();
-    let mut out = Boundary {
-        mean: vec![vec![0.0; w * h * 3]; n],
-        variance: vec![vec![0.0; w * h * 3]; n],
-        variance_grey: vec![vec![0.0; w * h]; n],
-        stats: BoundaryStats::default(),
-    };
+    let mut out = Boundary::zeros(n, scene.camera.width, scene.camera.height);
     if !params.iter().any(is_geometric) || scene.area_lights.emitters.is_empty() {
         return out;
     }

@@ -182,6 +182,17 @@ pub struct Boundary {
 }
 
 impl Boundary {
+    /// Zero for `n` parameters over a `width` × `height` image.
+    pub fn zeros(n: usize, width: u32, height: u32) -> Self {
+        let pixels = width as usize * height as usize;
+        Self {
+            mean: vec![vec![0.0; 3 * pixels]; n],
+            variance: vec![vec![0.0; 3 * pixels]; n],
+            variance_grey: vec![vec![0.0; pixels]; n],
+            stats: BoundaryStats::default(),
+        }
+    }
+
     /// Another term for the same parameters added in; the stats summed.
     pub fn absorb(&mut self, o: Boundary) {
         let planes = [
@@ -208,13 +219,14 @@ impl Boundary {
     }
 }
 
-/// Whether `p` can move a silhouette or a shadow edge.
+/// Whether `p` can move a silhouette or a shadow edge (a plane moves the
+/// shadows that fall on it).
 pub fn is_geometric(p: &Param) -> bool {
     match p.entity {
         Entity::Sphere(_) | Entity::Ellipsoid(_) | Entity::Triangle(_) | Entity::Mesh(_) => true,
-        Entity::Camera => true,
+        Entity::Camera | Entity::Plane(_) => true,
         Entity::Light(_) => p.field == "position",
-        Entity::Plane(_) | Entity::Render | Entity::Material(_) => false,
+        Entity::Render | Entity::Material(_) => false,
     }
 }
 
@@ -255,14 +267,8 @@ pub fn boundary_term<const K: usize>(
 ) -> Boundary {
     let start = Instant::now();
     let scene = view.scene();
-    let (w, h) = (scene.camera.width, scene.camera.height);
     let n = params.len();
-    let mut out = Boundary {
-        mean: vec![vec![0.0; (w * h * 3) as usize]; n],
-        variance: vec![vec![0.0; (w * h * 3) as usize]; n],
-        variance_grey: vec![vec![0.0; (w * h) as usize]; n],
-        stats: BoundaryStats::default(),
-    };
+    let mut out = Boundary::zeros(n, scene.camera.width, scene.camera.height);
     if !params.iter().any(is_geometric) {
         return out;
     }
