@@ -48,12 +48,16 @@ enum Command {
     /// `whitted`, `direct` and `path:K` on the render's own samples (same
     /// seed), so each pixel is the derivative of the same estimator.
     ///
-    /// What it computes is the *interior* derivative: it misses the change
-    /// of which surface a sample sees (silhouettes, shadow and refraction
-    /// boundaries), so derivatives by parameters that move geometry
-    /// (positions, radii, transforms, the camera, light positions) are
-    /// biased at those edges. `--check fd` measures the difference against
-    /// central finite differences.
+    /// Forward mode alone gives the *interior* derivative, which misses
+    /// the change of which surface a sample sees when a parameter moves
+    /// geometry (positions, radii, transforms, the camera, light
+    /// positions). By default (`--visibility full`) the boundary term is
+    /// added: edge sampling of the silhouettes and shadow edges the camera
+    /// sees and, under `direct` and `path:K`, of those every path vertex
+    /// sees (soft shadows, indirect light, point lights' shadows at later
+    /// vertices). Not covered: edges seen in mirrors or through glass.
+    /// `--check fd` measures the difference against central finite
+    /// differences.
     Grad(GradArgs),
     /// Recover scene parameters from an image: gradient descent (Adam or
     /// plain) on a loss between renders and a target.

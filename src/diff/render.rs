@@ -14,12 +14,14 @@
 //!
 //! With [`Visibility::Full`] (the default of `raylab grad`) each pass then
 //! adds the boundary term ([`super::boundary`]) on the same duals, with
-//! about as many samples per pixel of curve length as the pixels have.
+//! about as many samples per pixel of curve length as the pixels have,
+//! and for the path tracer the vertex terms
+//! ([`super::boundary::vertex`]), one path per pixel sample.
 //!
 //! Parameters are taken K at a time with K ∈ {1, 2, 4, 8, 16} (the smallest
 //! that holds them); more than 16 run in several passes.
 
-use super::boundary::area::area_shadow_term;
+use super::boundary::vertex::path_term;
 use super::boundary::{boundary_term, Boundary, Visibility};
 use super::params::Param;
 use super::view::DualScene;
@@ -295,9 +297,9 @@ fn pass<const K: usize>(
     }
     let boundary = (visibility == Visibility::Full).then(|| {
         let mut b = boundary_term(&view, params, &integrator, spp as f32, seed, threads);
-        // Direct lighting only (`direct`, `path:0`): see `area`.
-        if integrator.path_tracer().is_some_and(|p| p.max_bounces == 0) {
-            b.absorb(area_shadow_term(&view, params, spp, seed, threads));
+        // What paths meet after the camera ray (`direct`, `path:K`).
+        if let Some(tracer) = integrator.path_tracer() {
+            b.absorb(path_term(&view, params, &tracer, spp, seed, threads));
         }
         b
     });

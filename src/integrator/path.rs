@@ -148,12 +148,22 @@ impl PathEnd for NoEnd {
     }
 }
 
+/// A path vertex as [`PathTracer::trace_visiting`] reports it, before its
+/// light sampling: the hit, the bounce index (0 at the camera ray's hit),
+/// the throughput β of the path up to it and its albedo.
+pub struct Vertex<'a, R> {
+    pub bounce: u32,
+    pub hit: &'a HitR<R>,
+    pub beta: V3<R>,
+    pub albedo: V3<R>,
+}
+
 impl PathTracer {
     /// The radiance along a camera ray. With `end`, the path stops at the
     /// first bounce's hit x₂: after the emission found there (MIS-weighted
     /// as usual), x₂ adds albedo × `end.light_at(x₂)` in place of its own
     /// light sampling and further bounces.
-    // ANCHOR: path_radiance
+    #[inline]
     pub fn trace<V: View, S: Stats, E: PathEnd>(
         &self,
         view: &V,
@@ -162,21 +172,61 @@ impl PathTracer {
         stats: &mut S,
         end: Option<&E>,
     ) -> V3<V::R> {
+        self.trace_visiting(view, ray, ctx, stats, end, &mut |_| {})
+    }
+
+    /// [`PathTracer::trace`], calling `visit` at every vertex (the boundary
+    /// term of the gradient render samples the vertices' integrals there).
+    // ANCHOR: path_radiance
+    pub fn trace_visiting<V: View, S: Stats, E: PathEnd>(
+        &self,
+        view: &V,
+        ray: &RayR<V::R>,
+        ctx: &SampleContext,
+        stats: &mut S,
+        end: Option<&E>,
+        visit: &mut impl FnMut(&Vertex<'_, V::R>),
+    ) -> V3<V::R> {
         let scene = view.scene();
-        let set = &scene.settings;
         stats.ray(RayKind::Camera);
-        let Some(found) = scene.intersect(&ray.value(), set.max_distance, stats) else {
+        let Some(found) = scene.intersect(&ray.value(), scene.settings.max_distance, stats) else {
             return view.background();
         };
-        let mut hit = view.surface(ray, found);
+        let hit = view.surface(ray, found);
         // Emission seen directly has no other strategy to share with.
-        let mut radiance = view.material(found.object).emission;
-        let mut beta = V3::splat(V::R::one());
-        for bounce in 0..=self.max_bounces {
+        let emitted = view.material(found.object).emission;
+        let one = V3::splat(V::R::one());
+        emitted + self.walk(view, hit, 0, one, ctx, stats, end, visit)
+    }
+
+    /// The light the path gathers from vertex `first` at `hit` on, the
+    /// throughput there being `beta`: each vertex's light samples and the
+    /// emission its BRDF ray finds, until the path ends.
+    #[allow(clippy::too_many_arguments)]
+    fn walk<V: View, S: Stats, E: PathEnd>(
+        &self,
+        view: &V,
+        mut hit: HitR<V::R>,
+        first: u32,
+        mut beta: V3<V::R>,
+        ctx: &SampleContext,
+        stats: &mut S,
+        end: Option<&E>,
+        visit: &mut impl FnMut(&Vertex<'_, V::R>),
+    ) -> V3<V::R> {
+        let scene = view.scene();
+        let mut radiance = V3::zero();
+        for bounce in first..=self.max_bounces {
             let albedo = view.material(hit.hit.object).lambert_albedo(hit.point);
             if albedo.value() == Color::ZERO {
                 break;
             }
+            visit(&Vertex {
+                bounce,
+                hit: &hit,
+                beta,
+                albedo,
+            });
             let u = vertex_numbers(ctx, bounce);
             let n = hit.shading_normal;
             radiance +=
@@ -203,43 +253,123 @@ impl PathTracer {
             // Its density is fixed by the local direction: cos θ = local.z.
             let pdf_brdf = cosine_pdf(V::R::from_f32(local.z));
             beta = beta * albedo;
-            let next_ray = RayR::new(hit.spawn_origin(wi), wi);
-            stats.ray(RayKind::Path);
-            let Some(found) = scene.intersect(&next_ray.value(), set.max_distance, stats) else {
-                radiance += beta * view.background();
-                break;
-            };
-            let next = view.surface(&next_ray, found);
-            let le = view.material(found.object).emission;
-            if le.value() != Color::ZERO {
-                let w = self.brdf_hit_weight(view, &next, le, wi, pdf_brdf);
-                radiance += beta * le * w;
+            let step = (bounce, u[5], pdf_brdf);
+            match self.follow(
+                view,
+                &hit,
+                wi,
+                step,
+                &mut beta,
+                ctx,
+                stats,
+                end,
+                &mut radiance,
+            ) {
+                Some(next) => hit = next,
+                None => break,
             }
-            if let Some(end) = end {
-                // The next vertex's numbers, which it no longer needs.
-                let v = vertex_numbers(ctx, bounce + 1);
-                let albedo = view.material(found.object).lambert_albedo(next.point);
-                let cached = V3::from_vec3(end.light_at(&found, [v[0], v[1], v[2]]));
-                radiance += beta * albedo * cached;
-                break;
-            }
-            if bounce == self.max_bounces {
-                break;
-            }
-            if self.rr_start.is_some_and(|s| bounce + 1 >= s) {
-                // A discrete choice: its probability is a constant of the
-                // estimator, not differentiated.
-                let q = beta.value().max_element().min(1.0);
-                if u[5] >= q {
-                    break;
-                }
-                beta = beta / V::R::from_f32(q);
-            }
-            hit = next;
         }
         radiance
     }
+
+    /// The BRDF ray of vertex `bounce` at `hit` along `wi` (density
+    /// `pdf_brdf`; `u_rr` the vertex's Russian-roulette number), `beta`
+    /// already times the vertex's albedo: adds what its hit contributes
+    /// (background, MIS-weighted emission, the `end`'s light) to `radiance`
+    /// and returns the next vertex, or `None` where the path ends.
+    #[allow(clippy::too_many_arguments)]
+    fn follow<V: View, S: Stats, E: PathEnd>(
+        &self,
+        view: &V,
+        hit: &HitR<V::R>,
+        wi: V3<V::R>,
+        (bounce, u_rr, pdf_brdf): (u32, f32, V::R),
+        beta: &mut V3<V::R>,
+        ctx: &SampleContext,
+        stats: &mut S,
+        end: Option<&E>,
+        radiance: &mut V3<V::R>,
+    ) -> Option<HitR<V::R>> {
+        let scene = view.scene();
+        let next_ray = RayR::new(hit.spawn_origin(wi), wi);
+        stats.ray(RayKind::Path);
+        let Some(found) = scene.intersect(&next_ray.value(), scene.settings.max_distance, stats)
+        else {
+            *radiance += *beta * view.background();
+            return None;
+        };
+        let next = view.surface(&next_ray, found);
+        let le = view.material(found.object).emission;
+        if le.value() != Color::ZERO {
+            let w = self.brdf_hit_weight(view, &next, le, wi, pdf_brdf);
+            *radiance += *beta * le * w;
+        }
+        if let Some(end) = end {
+            // The next vertex's numbers, which it no longer needs.
+            let v = vertex_numbers(ctx, bounce + 1);
+            let albedo = view.material(found.object).lambert_albedo(next.point);
+            let cached = V3::from_vec3(end.light_at(&found, [v[0], v[1], v[2]]));
+            *radiance += *beta * albedo * cached;
+            return None;
+        }
+        if bounce == self.max_bounces {
+            return None;
+        }
+        if self.rr_start.is_some_and(|s| bounce + 1 >= s) {
+            // A discrete choice: its probability is a constant of the
+            // estimator, not differentiated.
+            let q = beta.value().max_element().min(1.0);
+            if u_rr >= q {
+                return None;
+            }
+            *beta = *beta / V::R::from_f32(q);
+        }
+        Some(next)
+    }
     // ANCHOR_END: path_radiance
+
+    /// What the estimator gathers along direction `wi` from vertex `bounce`
+    /// at `hit`, with the sample `ctx`'s own random numbers for everything
+    /// after: the BRDF ray's MIS-weighted emission and every later vertex's
+    /// light, times `beta` (the throughput times the vertex's albedo). This
+    /// is the vertex's integrand over directions (divided by cos θ/π), which
+    /// the boundary term of the gradient render evaluates either side of a
+    /// discontinuity. Zero below the surface.
+    #[allow(clippy::too_many_arguments)]
+    pub fn continue_along<V: View, S: Stats>(
+        &self,
+        view: &V,
+        hit: &HitR<V::R>,
+        wi: V3<V::R>,
+        bounce: u32,
+        beta: V3<V::R>,
+        ctx: &SampleContext,
+        stats: &mut S,
+    ) -> V3<V::R> {
+        let mut radiance = V3::zero();
+        let cos = hit.shading_normal.dot(wi);
+        if cos.value() <= 0.0 || hit.geometric_normal.value().dot(wi.value()) <= 0.0 {
+            return radiance;
+        }
+        let u_rr = vertex_numbers(ctx, bounce)[5];
+        let step = (bounce, u_rr, cosine_pdf(cos));
+        let mut beta = beta;
+        let none = None::<&NoEnd>;
+        if let Some(next) = self.follow(
+            view,
+            hit,
+            wi,
+            step,
+            &mut beta,
+            ctx,
+            stats,
+            none,
+            &mut radiance,
+        ) {
+            radiance += self.walk(view, next, bounce + 1, beta, ctx, stats, none, &mut |_| {});
+        }
+        radiance
+    }
 
     /// The weight of emission `le` found at `next` by a BRDF-sampled ray of
     /// direction `wi` and density `pdf_brdf`.

@@ -256,13 +256,14 @@ impl fmt::Display for GradReport {
             diff::Visibility::Full => writeln!(
                 f,
                 "visibility full: boundary term {:.3} s, {} curves from the eye and {} from \
-                 point lights, {} curve samples and {} area-light shading points ({} \
-                 contributing), {} light rays, {} radiance evaluations",
+                 point lights, {} paths with {} vertices, {} curve samples ({} contributing), \
+                 {} light rays, {} radiance evaluations",
                 b.seconds,
                 b.primary_curves,
                 b.shadow_curves,
+                b.paths,
+                b.vertices,
                 b.samples,
-                b.shading_points,
                 b.landed,
                 b.light_rays,
                 b.evaluations

@@ -61,20 +61,22 @@
 //! Jakob 2023) pays off for edges seen from many shading
 //! points, which the curves here are not.
 //!
-//! **Area lights** ([`area`]): under `direct`, soft shadows move inside
-//! each shading point's integral over the emitters; that term is sampled
-//! there, from the camera ray's hit.
+//! **After the camera ray** ([`vertex`], [`area`]): under `direct` and
+//! `path:K` every path vertex has an integral over the emitters (light
+//! sampling) and one over directions (its BRDF ray), and both have moving
+//! discontinuities: soft shadows on the emitters, and silhouettes, borders,
+//! creases and point lights' shadow edges seen from the vertex. They are
+//! sampled at every vertex of paths drawn as the path tracer draws them.
 //!
 //! **Not covered** (left to the interior derivative, hence biased where
-//! they act): edges seen in mirrors or through glass and edges met by
-//! later bounces of a path (secondary visibility, which for `path:K`
-//! includes the soft shadows at every vertex and every silhouette in front
-//! of indirect light), an emitter's own motion inside the integral over
-//! it, a plane's horizon, and curves where surfaces pass through each
-//! other.
+//! they act): edges seen in mirrors or through glass (the Whitted
+//! integrator's reflected and refracted rays), an emitter's own motion
+//! inside the integral over it, a plane's horizon, and curves where
+//! surfaces pass through each other.
 
 pub mod area;
 pub mod curves;
+pub mod vertex;
 
 use super::params::{Entity, Param};
 use super::render::radiance;
@@ -136,19 +138,23 @@ pub struct BoundaryStats {
     /// silhouettes seen from point lights (shadow edges).
     pub primary_curves: u64,
     pub shadow_curves: u64,
-    /// Curve samples drawn, and those that contributed: landed on the film
-    /// where the curve moves (the others contribute 0 without a radiance
-    /// evaluation), or for the area-light term found an emitter behind a
-    /// silhouette with its visibility changing across it.
+    /// Curve samples drawn (on the film, and in the path vertices'
+    /// integrals over directions), and the samples that contributed: on
+    /// the film where the curve moves, in a vertex's integral where the
+    /// curve point is in view and moves, and for the area-light term where
+    /// an emitter lies behind a silhouette with its visibility changing
+    /// across it. (The others contribute 0 without a radiance evaluation.)
     pub samples: u64,
     pub landed: u64,
-    /// `direct`'s area-light term: film samples drawn (each a shading
-    /// point whose integral over the emitters gets one silhouette sample).
-    pub shading_points: u64,
-    /// Rays from point lights past a curve (to find shadow edges, for the
-    /// samples and for the curves' film lengths; for the area-light term,
-    /// the rays from the shading point), and radiance evaluations
-    /// (two per landed sample, each a camera ray and all that follows it).
+    /// The vertex terms ([`vertex`]): paths drawn (film samples) and
+    /// their vertices, each sampled once for each term.
+    pub paths: u64,
+    pub vertices: u64,
+    /// Rays cast to find and test curve points: from point lights past a
+    /// curve (shadow edges, their film lengths), from path vertices
+    /// (visibility of the curve point, the area-light term's shadow rays);
+    /// and radiance evaluations (two per landed sample: a camera ray, or a
+    /// vertex's ray along a direction, and all that follows it).
     pub light_rays: u64,
     pub evaluations: u64,
     /// Wall time of the boundary term, seconds.
@@ -160,7 +166,8 @@ impl BoundaryStats {
         self.primary_curves += o.primary_curves;
         self.shadow_curves += o.shadow_curves;
         self.samples += o.samples;
-        self.shading_points += o.shading_points;
+        self.paths += o.paths;
+        self.vertices += o.vertices;
         self.landed += o.landed;
         self.light_rays += o.light_rays;
         self.evaluations += o.evaluations;
@@ -396,20 +403,24 @@ fn on_film<R: Real>(
 ) -> Option<(R, R)> {
     let p = match shadow {
         None => s,
-        Some((l, hit, receiver)) => {
-            let ray = RayR::new(l, (s - l).normalize());
-            let on = HitR::on(&receiver, None, &ray, hit);
-            // The renderer's shadow rays start ε along the normal
-            // ([`crate::shape::OFFSET_SCALE`]), which moves the shadow's
-            // edge: it is at the point p whose ray origin p + ε·n lies on
-            // the line from the light through s (exact for flat receivers).
-            let n = on.geometric_normal;
-            let eps = R::from_f32(OFFSET_SCALE * max_abs(on.point.value()).max(1.0));
-            let cos = -ray.dir.dot(n);
-            on.point - ray.dir * (eps / cos) - n * eps
-        }
+        Some((l, hit, receiver)) => shadow_point(l, s, hit, &receiver),
     };
     frame.project(p, w, h)
+}
+
+/// The point of the shadow edge cast by curve point `s` from light
+/// position `l` on `receiver`, whose hit by the ray from `l` through `s`
+/// is `hit`. The renderer's shadow rays start ε along the normal
+/// ([`crate::shape::OFFSET_SCALE`]), which moves the edge: it is at the
+/// point p whose ray origin p + ε·n lies on the line from the light
+/// through s (exact for flat receivers).
+fn shadow_point<R: Real>(l: V3<R>, s: V3<R>, hit: Hit, receiver: &ShapeR<R>) -> V3<R> {
+    let ray = RayR::new(l, (s - l).normalize());
+    let on = HitR::on(receiver, None, &ray, hit);
+    let n = on.geometric_normal;
+    let eps = R::from_f32(OFFSET_SCALE * max_abs(on.point.value()).max(1.0));
+    let cos = -ray.dir.dot(n);
+    on.point - ray.dir * (eps / cos) - n * eps
 }
 
 /// The curve's length on the film in pixels, from [`LENGTH_POINTS`] points
