@@ -134,7 +134,7 @@ enum Command {
     /// (PNG + SVG, log scale; `:` in names becomes `-`).
     ///
     /// Default accelerators: brute (only below 5000 primitives),
-    /// bvh:aabb:sah, bvh4, bvh:sphere:s3, bvh:ellipsoid:s3.
+    /// bvh:aabb:sah, bvh4, bvh8, bvh:sphere:s3, bvh:ellipsoid:s3.
     Stats {
         /// Scene file (TOML).
         scene: PathBuf,
@@ -363,8 +363,9 @@ struct SceneArgs {
     filter: Option<Filter>,
     /// Accelerator (default: the scene's): `brute`, `bvh[:volume[:builder[:leaf]]]`
     /// (volume aabb|sphere|sphere-ritter|ellipsoid|ellipsoid-ritter, builder
-    /// s3|sah; `bvh` = bvh:aabb:sah), `bvh4` (4-wide box BVH, the fastest) or
-    /// `embree[:low|medium|high][+robust]`.
+    /// s3|sah; `bvh` = bvh:aabb:sah), `bvh4` (4-wide box BVH), `bvh8` (8-wide
+    /// box BVH with AVX2 node tests and 4-wide triangle leaves, the fastest)
+    /// or `embree[:low|medium|high][+robust]`.
     #[arg(long)]
     accel: Option<AccelKind>,
     /// Integrator: `whitted` (recursive Phong/Whitted, the default),

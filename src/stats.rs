@@ -84,9 +84,21 @@ pub trait Stats {
     fn ray(&mut self, _kind: RayKind) {}
     fn node_visit(&mut self) {}
     fn box_test(&mut self) {}
+    /// `n` box tests at once (a wide node's children).
+    fn boxes_tested(&mut self, n: u32) {
+        for _ in 0..n {
+            self.box_test();
+        }
+    }
     fn bounding_sphere_test(&mut self) {}
     fn bounding_ellipsoid_test(&mut self) {}
     fn triangle_test(&mut self) {}
+    /// `n` triangle tests at once (a packet's lanes).
+    fn triangles_tested(&mut self, n: u32) {
+        for _ in 0..n {
+            self.triangle_test();
+        }
+    }
     fn sphere_test(&mut self) {}
     fn ellipsoid_test(&mut self) {}
     fn plane_test(&mut self) {}
@@ -214,6 +226,10 @@ impl Stats for Counters {
         self.box_tests += 1;
     }
     #[inline(always)]
+    fn boxes_tested(&mut self, n: u32) {
+        self.box_tests += u64::from(n);
+    }
+    #[inline(always)]
     fn bounding_sphere_test(&mut self) {
         self.bounding_sphere_tests += 1;
     }
@@ -224,6 +240,10 @@ impl Stats for Counters {
     #[inline(always)]
     fn triangle_test(&mut self) {
         self.triangle_tests += 1;
+    }
+    #[inline(always)]
+    fn triangles_tested(&mut self, n: u32) {
+        self.triangle_tests += u64::from(n);
     }
     #[inline(always)]
     fn sphere_test(&mut self) {

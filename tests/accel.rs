@@ -19,7 +19,7 @@
 use raylab::accel::bvh::{
     BoundingVolume, Builder, BvhConfig, Fit, Node, VolumeKind, DEFAULT_LEAF_SIZE, MAX_DEPTH,
 };
-use raylab::accel::{Accel, AccelKind, Accelerator, Brute, Bvh, Bvh4};
+use raylab::accel::{Accel, AccelKind, Accelerator, Brute, Bvh, Bvh4, Bvh8};
 use raylab::io::read_mesh;
 use raylab::math::Aabb;
 use raylab::math::{Ray, Vec3};
@@ -250,9 +250,12 @@ fn agree_with_brute_force(relative: &str, seed: u64) {
         check_accelerator_structure(&accel, &prims, &config);
         check_against_brute_force(&accel, &prims, &rays, &truth);
     }
-    let wide = Accelerator::build(AccelKind::Bvh4, &prims, all_ids(&prims)).unwrap();
-    assert_eq!(wide.kind(), AccelKind::Bvh4);
-    check_against_brute_force(&wide, &prims, &rays, &truth);
+    // The wide trees (packet leaves, the 4- and 8-lane node tests).
+    for kind in [AccelKind::Bvh4, AccelKind::Bvh8] {
+        let wide = Accelerator::build(kind, &prims, all_ids(&prims)).unwrap();
+        assert_eq!(wide.kind(), kind);
+        check_against_brute_force(&wide, &prims, &rays, &truth);
+    }
 }
 
 /// Every closest hit of `accel` is brute force's (the same triangle at the
@@ -482,20 +485,25 @@ fn test_counts_on_a_hand_built_scene() {
         leaf_size: 1,
     }
     .options();
-    let wide = Bvh4::build(&prims, vec![0, 1], options);
-    assert_eq!(wide.nodes().len(), 1);
-    for (k, case) in cases.iter().enumerate() {
-        let ray = PreparedRay::new(Ray::new(case.origin, case.dir));
-        let mut c = Counters::default();
-        let hit = wide.intersect(&prims, &ray, case.t_max, &mut c);
-        let got = (
-            hit.map(|(id, _)| id),
-            c.nodes_visited,
-            c.box_tests,
-            c.triangle_tests,
-        );
-        assert_eq!(got, case.expect, "bvh4, case {k}");
-        assert_eq!(c.bounding_volume_tests(), c.box_tests);
+    let wide4 = Bvh4::build(&prims, vec![0, 1], options);
+    let wide8 = Bvh8::build(&prims, vec![0, 1], options);
+    assert_eq!(wide4.nodes().len(), 1);
+    assert_eq!(wide8.nodes().len(), 1);
+    let trees = [
+        ("bvh4", Accelerator::Bvh4(wide4)),
+        ("bvh8", Accelerator::Bvh8(wide8)),
+    ];
+    for (name, tree) in trees {
+        for (k, case) in cases.iter().enumerate() {
+            let ray = PreparedRay::new(Ray::new(case.origin, case.dir));
+            let mut c = Counters::default();
+            let hit = tree
+                .intersect(&prims, &ray, case.t_max, &mut c)
+                .map(|h| h.0);
+            let got = (hit, c.nodes_visited, c.box_tests, c.triangle_tests);
+            assert_eq!(got, case.expect, "{name}, case {k}");
+            assert_eq!(c.bounding_volume_tests(), c.box_tests);
+        }
     }
 }
 
@@ -527,6 +535,26 @@ fn degenerate_inputs_build_and_answer() {
         let hit = accel.intersect(&many, &ray, f32::INFINITY, &mut NoStats);
         assert!(hit.is_some_and(|(id, h)| id < 50 && (h.t - 5.0).abs() < 1e-6));
     }
+    // The same inputs for the wide trees (packet leaves: the zero-area
+    // triangles take the exact f64 path of the triangle test).
+    for kind in [AccelKind::Bvh4, AccelKind::Bvh8] {
+        let empty = Accelerator::build(kind, &[], vec![]).unwrap();
+        assert!(empty
+            .intersect(&[], &ray, f32::INFINITY, &mut NoStats)
+            .is_none());
+        assert!(!empty.occluded(&[], &ray, f32::INFINITY, &mut NoStats));
+        let one = Accelerator::build(kind, &[tri], vec![0]).unwrap();
+        assert!(one.occluded(&[tri], &ray, f32::INFINITY, &mut NoStats));
+        assert!(one
+            .intersect(&[tri], &ray, f32::INFINITY, &mut NoStats)
+            .is_some_and(|(id, h)| id == 0 && (h.t - 5.0).abs() < 1e-6));
+        let mut many = vec![tri; 50];
+        many.extend(std::iter::repeat(point).take(50));
+        let accel = Accelerator::build(kind, &many, all_ids(&many)).unwrap();
+        let hit = accel.intersect(&many, &ray, f32::INFINITY, &mut NoStats);
+        assert!(hit.is_some_and(|(id, h)| id < 50 && (h.t - 5.0).abs() < 1e-6));
+        assert!(accel.occluded(&many, &ray, f32::INFINITY, &mut NoStats));
+    }
 }
 
 #[test]
@@ -536,6 +564,9 @@ fn names_parse_and_print() {
     assert_eq!(parse("bvh"), Ok(default));
     assert_eq!(parse("bvh:aabb:sah"), Ok(default));
     assert_eq!(default.to_string(), "bvh:aabb:sah");
+    for wide in [AccelKind::Bvh4, AccelKind::Bvh8] {
+        assert_eq!(parse(&wide.to_string()), Ok(wide));
+    }
     let c = BvhConfig {
         volume: VolumeKind::SphereRitter,
         builder: Builder::S3,

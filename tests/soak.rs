@@ -14,7 +14,7 @@
 //! `adaptive`), filter (`box`, `tent`, `mitchell`), integrator (`whitted`,
 //! `direct`, `path:K`, and `floodfill` at a coarse resolution every 15th
 //! scene) and accelerator (`brute`, `bvh` with each bounding volume and
-//! builder, `bvh4`, `embree`). Images are 24×16.
+//! builder, `bvh4`, `bvh8`, `embree`). Images are 24×16.
 //!
 //! Memory: `VmRSS` from `/proc/self/status` after every scene (its scene,
 //! accelerator and film dropped). After a warm-up — the allocator's arenas
@@ -115,6 +115,7 @@ fn scene_text(index: usize) -> Generated {
         "bvh:ellipsoid-ritter",
         "bvh:aabb:s3:1",
         "bvh4",
+        "bvh8",
         "embree",
     ]);
     let integrator = if index % 15 == 7 {

@@ -232,17 +232,25 @@ pub fn pack(scene: &Scene) -> Result<Packed, String> {
             for n in b.nodes() {
                 for planes in [&n.min, &n.max] {
                     for axis in planes {
-                        push_f32s(&mut w, &axis.to_array());
+                        push_f32s(&mut w, axis);
                     }
                 }
-                let valid = |i: usize| i < n.children as usize;
-                w.extend((0..4).map(|i| if valid(i) { n.first[i] } else { u32::MAX }));
-                w.extend((0..4).map(|i| if valid(i) { n.count[i] } else { u32::MAX }));
+                // A leaf's `first` names its packets on the CPU; the shader
+                // reads slot runs.
+                let first = |i: usize| match n.count[i] {
+                    0 | u32::MAX => n.first[i],
+                    c => b.leaf_slots(n.first[i], c).start,
+                };
+                w.extend((0..4).map(first));
+                w.extend_from_slice(&n.count);
             }
             if let Some(r) = b.root_box() {
                 p.root_min = r.min.to_array();
                 p.root_max = r.max.to_array();
-                (p.root_first, p.root_count) = b.root();
+                (p.root_first, p.root_count) = match b.root() {
+                    (f, 0) => (f, 0),
+                    (f, c) => (b.leaf_slots(f, c).start, c),
+                };
                 p.has_root = 1;
             }
             (
@@ -252,6 +260,13 @@ pub fn pack(scene: &Scene) -> Result<Packed, String> {
                 },
                 w,
                 b.indices().to_vec(),
+            )
+        }
+        Accelerator::Bvh8(_) => {
+            return Err(
+                "the GPU port has no 8-wide tree; on the GPU use --accel brute, \
+                        bvh[:<volume>…] or bvh4"
+                    .into(),
             )
         }
         #[cfg(feature = "embree")]

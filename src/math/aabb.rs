@@ -1,8 +1,9 @@
 //! The axis-aligned box: bounds of primitives and scenes, the BVH's box
-//! volume, the voxel grid's extent. One type, and one slab test in two
-//! forms: [`Aabb::slab`] for one box and [`slab4`], its 4-lane SIMD form,
-//! for four boxes at once (the BVH's packed sibling pairs and 4-wide
-//! nodes). The two do the same operations in the same order, so they give
+//! volume, the voxel grid's extent. One type, and one slab test in several
+//! forms: [`Aabb::slab`] for one box, [`slab4`], its 4-lane SIMD form, for
+//! four boxes at once (the BVH's packed sibling pairs and 4-wide nodes),
+//! and [`slab8`] / [`slab8_avx2`] for the eight boxes of an 8-wide node.
+//! All do the same operations in the same order, so they give
 //! bit-identical distances (tested below).
 
 use glam::{BVec4A, Vec3, Vec4};
@@ -137,17 +138,97 @@ pub fn slab4_distances(t0: &[Vec4; 3], t1: &[Vec4; 3], t_max: f32) -> (Vec4, u32
     (enter.max(Vec4::ZERO), ok.bitmask())
 }
 
+/// Eight boxes' planes, lane i being box i (the 8-wide BVH's node layout).
+pub type Planes8 = [[f32; 8]; 3];
+
+/// [`slab4`] for eight boxes at once, without AVX: the two halves through
+/// [`slab4`]. Bit-identical to [`Aabb::slab`] lane by lane, as
+/// [`slab8_avx2`] is.
+#[inline(always)]
+pub fn slab8(
+    lo: &Planes8,
+    hi: &Planes8,
+    origin: Vec3,
+    inv_dir: Vec3,
+    t_max: f32,
+) -> ([f32; 8], u32) {
+    let half = |p: &Planes8, h: usize| -> [Vec4; 3] {
+        std::array::from_fn(|a| Vec4::from_slice(&p[a][4 * h..4 * h + 4]))
+    };
+    let (e0, m0) = slab4(&half(lo, 0), &half(hi, 0), origin, inv_dir, t_max);
+    let (e1, m1) = slab4(&half(lo, 1), &half(hi, 1), origin, inv_dir, t_max);
+    let mut enter = [0.0; 8];
+    enter[..4].copy_from_slice(&e0.to_array());
+    enter[4..].copy_from_slice(&e1.to_array());
+    (enter, m0 | m1 << 4)
+}
+
+/// [`slab8`] in AVX registers: the operations of [`slab4_distances`], in
+/// the same order and with the same operand order (so NaN and signed-zero
+/// cases resolve alike), on eight lanes.
+///
+/// # Safety
+/// The CPU must support AVX2 (`is_x86_feature_detected!("avx2")`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub unsafe fn slab8_avx2(
+    lo: &Planes8,
+    hi: &Planes8,
+    origin: Vec3,
+    inv_dir: Vec3,
+    t_max: f32,
+) -> ([f32; 8], u32) {
+    use std::arch::x86_64::*;
+    let mut enter = _mm256_set1_ps(f32::NEG_INFINITY);
+    let mut exit = _mm256_set1_ps(f32::INFINITY);
+    for a in 0..3 {
+        let o = _mm256_set1_ps(origin[a]);
+        let inv = _mm256_set1_ps(inv_dir[a]);
+        let t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(lo[a].as_ptr()), o), inv);
+        let t1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(hi[a].as_ptr()), o), inv);
+        let free = _mm256_or_ps(
+            _mm256_cmp_ps::<_CMP_UNORD_Q>(t0, t0),
+            _mm256_cmp_ps::<_CMP_UNORD_Q>(t1, t1),
+        );
+        // select(free, a, b) = blendv(b, a, free), as glam's SSE select.
+        let near = _mm256_blendv_ps(
+            _mm256_min_ps(t0, t1),
+            _mm256_set1_ps(f32::NEG_INFINITY),
+            free,
+        );
+        let far = _mm256_blendv_ps(_mm256_max_ps(t0, t1), _mm256_set1_ps(f32::INFINITY), free);
+        enter = _mm256_max_ps(enter, near);
+        exit = _mm256_min_ps(exit, far);
+    }
+    let exit = _mm256_mul_ps(exit, _mm256_set1_ps(SLAB_EXIT_SCALE));
+    let zero = _mm256_setzero_ps();
+    let ok = _mm256_and_ps(
+        _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_LE_OQ>(enter, exit),
+            _mm256_cmp_ps::<_CMP_GE_OQ>(exit, zero),
+        ),
+        _mm256_cmp_ps::<_CMP_LE_OQ>(enter, _mm256_set1_ps(t_max)),
+    );
+    let mut out = [0.0f32; 8];
+    _mm256_storeu_ps(out.as_mut_ptr(), _mm256_max_ps(enter, zero));
+    (out, _mm256_movemask_ps(ok) as u32)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::math::SplitMix64;
 
-    /// The SIMD form must agree with the scalar one bit for bit, whatever
+    /// Entry distances and hit mask of one N-lane form of the slab test.
+    type Form<'a, const N: usize> = &'a dyn Fn(&[Aabb; N], Vec3, Vec3, f32) -> ([f32; N], u32);
+
+    /// Every `forms` must agree with the scalar slab bit for bit, whatever
     /// the ray: random boxes, random rays, axis-parallel rays (infinite
     /// 1/d) and rays starting exactly on a box's plane (the NaN case).
-    #[test]
-    fn slab4_is_bit_identical_to_the_scalar_slab() {
-        let mut rng = SplitMix64(5);
+    /// Returns the number of hits checked.
+    fn check_against_scalar<const N: usize>(seed: u64, forms: &[Form<N>]) -> usize {
+        let mut rng = SplitMix64(seed);
         let v = |rng: &mut SplitMix64| {
             Vec3::new(
                 rng.range(-2.0, 2.0),
@@ -157,7 +238,7 @@ mod tests {
         };
         let mut hits = 0;
         for i in 0..20_000 {
-            let boxes: [Aabb; 4] = std::array::from_fn(|_| {
+            let boxes: [Aabb; N] = std::array::from_fn(|_| {
                 let (a, b) = (v(&mut rng), v(&mut rng));
                 Aabb {
                     min: a.min(b),
@@ -166,31 +247,81 @@ mod tests {
             });
             let mut origin = v(&mut rng);
             let mut dir = v(&mut rng);
+            let axis = (i / 4) % 3;
             match i % 4 {
-                1 => dir.y = 0.0,
+                1 => dir[axis] = 0.0,
                 2 => {
-                    dir.x = 0.0;
-                    origin.x = boxes[0].min.x;
+                    dir[axis] = 0.0;
+                    let b = &boxes[i % N];
+                    origin[axis] = if i % 8 < 4 { b.min[axis] } else { b.max[axis] };
                 }
                 _ => {}
             }
             let inv = dir.recip();
             let t_max = rng.range(0.0, 4.0);
+            for form in forms {
+                let (enter, mask) = form(&boxes, origin, inv, t_max);
+                for (k, b) in boxes.iter().enumerate() {
+                    let scalar = b.slab(origin, inv, t_max);
+                    assert_eq!(mask & (1 << k) != 0, scalar.is_some(), "ray {i} box {k}");
+                    if let Some(t) = scalar {
+                        assert_eq!(enter[k].to_bits(), t.to_bits(), "ray {i} box {k}");
+                        hits += 1;
+                    }
+                }
+            }
+        }
+        hits
+    }
+
+    #[test]
+    fn slab4_is_bit_identical_to_the_scalar_slab() {
+        let form = |boxes: &[Aabb; 4], o: Vec3, inv: Vec3, t_max: f32| {
             let lane = |f: fn(&Aabb) -> Vec3, a: usize| {
                 Vec4::from_array(std::array::from_fn(|k| f(&boxes[k])[a]))
             };
             let lo = [0, 1, 2].map(|a| lane(|b| b.min, a));
             let hi = [0, 1, 2].map(|a| lane(|b| b.max, a));
-            let (enter, mask) = slab4(&lo, &hi, origin, inv, t_max);
-            for (k, b) in boxes.iter().enumerate() {
-                let scalar = b.slab(origin, inv, t_max);
-                assert_eq!(mask & (1 << k) != 0, scalar.is_some(), "ray {i} box {k}");
-                if let Some(t) = scalar {
-                    assert_eq!(enter[k].to_bits(), t.to_bits(), "ray {i} box {k}");
-                    hits += 1;
-                }
-            }
-        }
+            let (enter, mask) = slab4(&lo, &hi, o, inv, t_max);
+            (enter.to_array(), mask)
+        };
+        let hits = check_against_scalar::<4>(5, &[&form]);
         assert!(hits > 5_000, "too few hits ({hits}) to test anything");
+    }
+
+    /// Both 8-wide forms (the AVX2 one where the CPU has AVX2; the test
+    /// says which it checked).
+    #[test]
+    fn slab8_is_bit_identical_to_the_scalar_slab() {
+        let planes = |boxes: &[Aabb; 8], f: fn(&Aabb) -> Vec3| -> Planes8 {
+            std::array::from_fn(|a| std::array::from_fn(|k| f(&boxes[k])[a]))
+        };
+        let portable = |boxes: &[Aabb; 8], o: Vec3, inv: Vec3, t_max: f32| {
+            slab8(
+                &planes(boxes, |b| b.min),
+                &planes(boxes, |b| b.max),
+                o,
+                inv,
+                t_max,
+            )
+        };
+        let mut forms: Vec<Form<8>> = vec![&portable];
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx2 = false;
+        #[cfg(target_arch = "x86_64")]
+        let simd = |boxes: &[Aabb; 8], o: Vec3, inv: Vec3, t_max: f32| {
+            let (lo, hi) = (planes(boxes, |b| b.min), planes(boxes, |b| b.max));
+            // SAFETY: only called where AVX2 was detected.
+            unsafe { slab8_avx2(&lo, &hi, o, inv, t_max) }
+        };
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            forms.push(&simd);
+        }
+        eprintln!("slab8: portable form checked; AVX2 form checked: {avx2}");
+        let hits = check_against_scalar::<8>(8, &forms);
+        assert!(hits > 10_000, "too few hits ({hits}) to test anything");
     }
 }

@@ -9,7 +9,9 @@ pub mod real;
 pub mod rng;
 pub mod sampling;
 
-pub use aabb::{slab4, slab4_distances, Aabb, SLAB_EXIT_SCALE};
+#[cfg(target_arch = "x86_64")]
+pub use aabb::slab8_avx2;
+pub use aabb::{slab4, slab4_distances, slab8, Aabb, Planes8, SLAB_EXIT_SCALE};
 pub use dual::Dual;
 pub use real::{RayR, Real, M3, V3};
 pub use rng::SplitMix64;

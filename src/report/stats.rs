@@ -101,7 +101,7 @@ pub fn percentile(sorted: &[u64], p: f64) -> Option<u64> {
 
 /// The accelerators `raylab stats` compares when none is named: brute
 /// force for small scenes, then the box BVH with the SAH builder (the
-/// production baseline), its 4-wide collapse, and S3's sphere and ellipsoid
+/// production baseline), its 4- and 8-wide collapses, and S3's sphere and ellipsoid
 /// hierarchies.
 pub fn default_accels(bounded_prims: usize) -> Vec<AccelKind> {
     let mut v = Vec::new();
@@ -116,6 +116,7 @@ pub fn default_accels(bounded_prims: usize) -> Vec<AccelKind> {
         }
     }
     v.insert(v.len() - 2, AccelKind::Bvh4);
+    v.insert(v.len() - 2, AccelKind::Bvh8);
     v
 }
 

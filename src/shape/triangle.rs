@@ -83,6 +83,16 @@ impl Triangle {
         let bz = s.z * b[kz];
         let cz = s.z * c[kz];
         let t_scaled = u * az + v * bz + w * cz;
+        Self::finish(v, w, det, t_scaled, t_max)
+    }
+
+    /// The last step of [`Triangle::intersect`], shared with the packet
+    /// test (`accel::bvh::packet`): the interval check of the scaled
+    /// distance against (0, t_max), without dividing, then the division.
+    /// `v`, `w` are the edge functions of vertices 1 and 2, `det` their sum
+    /// with the first's (not zero).
+    #[inline(always)]
+    pub fn finish(v: f32, w: f32, det: f32, t_scaled: f32, t_max: f32) -> Option<PrimHit> {
         if det > 0.0 {
             if t_scaled <= 0.0 || t_scaled >= t_max * det {
                 return None;

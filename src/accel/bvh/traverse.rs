@@ -19,6 +19,7 @@ use super::{Bvh, MAX_DEPTH};
 use crate::accel::brute::{any_of, closest_of};
 use crate::shape::{PreparedRay, PrimArrays, PrimHit};
 use crate::stats::Stats;
+use std::mem::MaybeUninit;
 
 impl<V: BoundingVolume> Bvh<V> {
     // ANCHOR: traverse
@@ -41,8 +42,7 @@ impl<V: BoundingVolume> Bvh<V> {
         }
         // One pending sibling per level at most, and no tree is deeper than
         // MAX_DEPTH (the builders stop there).
-        let mut stack = [(0u32, 0.0f32); MAX_DEPTH as usize];
-        let mut depth = 0usize;
+        let mut stack = Pending::<u32, { MAX_DEPTH as usize }>::new();
         let mut node = 0usize;
         loop {
             stats.node_visit();
@@ -71,8 +71,7 @@ impl<V: BoundingVolume> Bvh<V> {
                         } else {
                             (right, left, tl)
                         };
-                        stack[depth] = (far as u32, t_far);
-                        depth += 1;
+                        stack.push(far as u32, t_far);
                         node = near;
                         continue;
                     }
@@ -91,7 +90,7 @@ impl<V: BoundingVolume> Bvh<V> {
             // Entry distances carry rounding, so a node entered exactly at
             // the current closest t is still visited (a hit there would have
             // to be closer by a rounding error to count).
-            match pop_live(&stack, &mut depth, t_max) {
+            match stack.pop_live(t_max) {
                 Some(next) => node = next as usize,
                 None => return best.is_some(),
             }
@@ -137,17 +136,45 @@ pub(super) fn test_leaf<S: Stats, const ANY_HIT: bool>(
     }
 }
 
-/// Pop pending nodes until one whose entry distance does not exceed
-/// `t_max` (entry distances carry rounding, so a node entered exactly at
-/// the current closest t is still visited); `None` when none is left.
-#[inline(always)]
-pub(super) fn pop_live<T: Copy>(stack: &[(T, f32)], depth: &mut usize, t_max: f32) -> Option<T> {
-    while *depth > 0 {
-        *depth -= 1;
-        let (next, t_enter) = stack[*depth];
-        if t_enter <= t_max {
-            return Some(next);
+/// The traversal stack: pending (node, entry distance) pairs, at most `N`.
+/// Left uninitialised: the wide trees' capacity (7 siblings a level, 64
+/// levels) would otherwise cost a memset of kilobytes per ray.
+pub(super) struct Pending<T, const N: usize> {
+    items: [MaybeUninit<(T, f32)>; N],
+    len: usize,
+}
+
+impl<T: Copy, const N: usize> Pending<T, N> {
+    #[inline(always)]
+    pub(super) fn new() -> Self {
+        Pending {
+            items: [const { MaybeUninit::uninit() }; N],
+            len: 0,
         }
     }
-    None
+
+    /// Push a node with its entry distance (panics past `N`, which the
+    /// depth limit of the builders rules out).
+    #[inline(always)]
+    pub(super) fn push(&mut self, node: T, t_enter: f32) {
+        self.items[self.len] = MaybeUninit::new((node, t_enter));
+        self.len += 1;
+    }
+
+    /// Pop pending nodes until one whose entry distance does not exceed
+    /// `t_max` (entry distances carry rounding, so a node entered exactly
+    /// at the current closest t is still visited); `None` when none is
+    /// left.
+    #[inline(always)]
+    pub(super) fn pop_live(&mut self, t_max: f32) -> Option<T> {
+        while self.len > 0 {
+            self.len -= 1;
+            // SAFETY: slots below `len` were written by `push`.
+            let (next, t_enter) = unsafe { self.items[self.len].assume_init() };
+            if t_enter <= t_max {
+                return Some(next);
+            }
+        }
+        None
+    }
 }

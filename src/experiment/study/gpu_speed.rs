@@ -253,7 +253,7 @@ impl Study for GpuSpeed {
         ) {
             return Err(ParamError::new(
                 "accel",
-                "the GPU port has no Embree: give `brute`, `bvh[:VOLUME[:BUILDER]]` or `bvh4`",
+                "the GPU port has no Embree and no 8-wide tree: give `brute`, `bvh[:VOLUME[:BUILDER]]` or `bvh4`",
             ));
         }
         let res = p.resolution.unwrap_or(Resolution {

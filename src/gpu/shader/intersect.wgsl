@@ -274,7 +274,7 @@ fn traverse(ray: Ray, t_max0: f32, any_hit: bool, best: ptr<function, Found>) ->
             }
         }
         if descend { continue; }
-        // bvh::traverse::pop_live
+        // bvh::traverse::Pending::pop_live
         var popped = false;
         loop {
             tick();
