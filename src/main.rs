@@ -363,9 +363,8 @@ struct SceneArgs {
     filter: Option<Filter>,
     /// Accelerator (default: the scene's): `brute`, `bvh[:volume[:builder[:leaf]]]`
     /// (volume aabb|sphere|sphere-ritter|ellipsoid|ellipsoid-ritter, builder
-    /// s3|sah; `bvh` = bvh:aabb:sah), `bvh4` (4-wide box BVH), `bvh8` (8-wide
-    /// box BVH with AVX2 node tests and 4-wide triangle leaves, the fastest)
-    /// or `embree[:low|medium|high][+robust]`.
+    /// s3|sah; `bvh` = bvh:aabb:sah), `bvh4` (4-wide box BVH), `bvh8` (8-wide, AVX2
+    /// nodes, packet leaves: the fastest) or `embree[:low|medium|high][+robust]`.
     #[arg(long)]
     accel: Option<AccelKind>,
     /// Integrator: `whitted` (recursive Phong/Whitted, the default),
