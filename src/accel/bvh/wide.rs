@@ -143,16 +143,13 @@ where
     WideNode<W>: ChildTest<W>,
 {
     /// Build the binary box tree with `options` ([`BuildOptions::wide`] for
-    /// the named trees) and collapse it.
+    /// `bvh8`, the defaults for `bvh4`) and collapse it.
     pub fn build(prims: &[Primitive], ids: Vec<u32>, options: BuildOptions) -> Self {
         let start = std::time::Instant::now();
         let binary = Bvh::<Aabb>::build(prims, ids, options);
         let (bin, indices, leaf_prims) = binary.into_parts();
-        let tris = leaf_prims
-            .triangles_only()
-            .filter(|t| !t.is_empty())
-            .map(<[_]>::to_vec);
-        let mut c = Collapse::<W>::new(&bin, tris.as_deref(), &options);
+        let tris = leaf_prims.triangles_only().filter(|t| !t.is_empty());
+        let mut c = Collapse::<W>::new(&bin, tris, &options);
         let root = bin.first().map(|r| {
             if r.is_leaf() {
                 c.leaf(r.first, r.count)
