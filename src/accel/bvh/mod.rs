@@ -193,11 +193,8 @@ impl<V: BoundingVolume> Bvh<V> {
     pub fn build(prims: &[Primitive], ids: Vec<u32>, options: BuildOptions) -> Self {
         let start = Instant::now();
         let (nodes, indices) = build::build(prims, ids, &options);
-        // Two independent copies of what the build made: side by side.
-        let (packed, leaf_prims) = rayon::join(
-            || pack(&nodes),
-            || PrimArrays::new(indices.iter().map(|&i| &prims[i as usize])),
-        );
+        let packed = pack(&nodes);
+        let leaf_prims = PrimArrays::new(indices.iter().map(|&i| &prims[i as usize]));
         Bvh {
             nodes,
             packed,
