@@ -134,7 +134,7 @@ enum Command {
     /// (PNG + SVG, log scale; `:` in names becomes `-`).
     ///
     /// Default accelerators: brute (only below 5000 primitives),
-    /// bvh:aabb:sah, bvh4, bvh8, bvh:sphere:s3, bvh:ellipsoid:s3.
+    /// bvh:aabb:sah, bvh4, bvh8 (not with --device gpu), bvh:sphere:s3, bvh:ellipsoid:s3.
     Stats {
         /// Scene file (TOML).
         scene: PathBuf,
@@ -361,10 +361,10 @@ struct SceneArgs {
     /// B = C = 1/3, radius 2). Not used by the adaptive sampler.
     #[arg(long, value_parser = Filter::parse)]
     filter: Option<Filter>,
-    /// Accelerator (default: the scene's): `brute`, `bvh[:volume[:builder[:leaf]]]`
-    /// (volume aabb|sphere|sphere-ritter|ellipsoid|ellipsoid-ritter, builder
-    /// s3|sah; `bvh` = bvh:aabb:sah), `bvh4` (4-wide box BVH), `bvh8` (8-wide, AVX2
-    /// nodes, packet leaves: the fastest) or `embree[:low|medium|high][+robust]`.
+    /// Accelerator (default: the scene's): `brute`, `bvh` (fastest: `bvh8`, 8-wide,
+    /// AVX2 nodes, packet leaves), `bvh4` (4-wide), binary `bvh2` = `bvh:aabb:sah` or
+    /// `bvh:volume[:builder[:leaf]]` (volume aabb|sphere|sphere-ritter|ellipsoid|
+    /// ellipsoid-ritter, builder s3|sah), or `embree[:low|medium|high][+robust]`.
     #[arg(long)]
     accel: Option<AccelKind>,
     /// Integrator: `whitted` (recursive Phong/Whitted, the default),

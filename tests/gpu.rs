@@ -287,10 +287,10 @@ fn a_mesh_scene_matches_the_cpu_with_every_tree() {
     // Brute force (S3's basic tracer) on the Cornell box, whose planes are
     // also brute-forced beside any tree; smooth normals (the bunny).
     for (path, accel) in [
-        ("data/scenes/bunny.toml", "bvh"),
+        ("data/scenes/bunny.toml", "bvh2"),
         ("data/scenes/cornell-box.toml", "brute"),
         ("data/scenes/cornell-box.toml", "bvh4"),
-        ("data/scenes/leak-rooms.toml", "bvh"),
+        ("data/scenes/leak-rooms.toml", "bvh2"),
     ] {
         let overrides = Overrides {
             accel: Some(accel.parse::<AccelKind>().unwrap()),
@@ -333,7 +333,11 @@ fn a_scene_beyond_the_adapters_buffer_limit_is_a_clear_error() {
     }
     let limit = 1 << 20;
     let small_gpu = Gpu::with_binding_limit(limit).unwrap();
-    let scene = load("data/scenes/camel.toml", &small(32, 24));
+    let overrides = Overrides {
+        accel: Some("bvh4".parse().unwrap()),
+        ..small(32, 24)
+    };
+    let scene = load("data/scenes/camel.toml", &overrides);
     let err = small_gpu
         .render(&scene, false)
         .err()
@@ -347,7 +351,7 @@ fn a_scene_beyond_the_adapters_buffer_limit_is_a_clear_error() {
 #[test]
 fn what_the_gpu_does_not_do_is_refused_by_name() {
     let Some(gpu) = gpu() else { return };
-    let cases: [(&str, Overrides, &str); 4] = [
+    let cases: [(&str, Overrides, &str); 5] = [
         (
             "data/scenes/s1-spheres.toml",
             Overrides {
@@ -380,6 +384,8 @@ fn what_the_gpu_does_not_do_is_refused_by_name() {
             },
             "Embree's tree",
         ),
+        // The mesh scenes name the fastest tree, `bvh` = `bvh8`.
+        ("data/scenes/camel.toml", small(8, 6), "no 8-wide tree"),
     ];
     for (path, overrides, want) in cases {
         let scene = load(path, &overrides);

@@ -109,6 +109,7 @@ fn scene_text(index: usize) -> Generated {
     let accel = g.pick(&[
         "brute",
         "bvh",
+        "bvh2",
         "bvh:sphere",
         "bvh:ellipsoid:s3",
         "bvh:sphere-ritter:sah:2",

@@ -51,12 +51,15 @@ pub enum AccelKind {
     /// Test every primitive.
     #[default]
     Brute,
-    /// A bounding volume hierarchy (`bvh`, `bvh:<volume>:<builder>`, …).
+    /// A binary bounding volume hierarchy (`bvh2`, the box tree;
+    /// `bvh:<volume>:<builder>[:<leaf size>]`), kept by name for teaching
+    /// and for the bounding-volume comparison.
     Bvh(BvhConfig),
     /// The 4-wide box BVH (`bvh4`): the default binary SAH box tree (the
     /// same leaves) collapsed to four children per node, tested 4-wide.
     Bvh4,
-    /// The 8-wide box BVH (`bvh8`), raylab's fastest: a binary SAH box
+    /// The 8-wide box BVH (`bvh8`, and plain `bvh`, which names raylab's
+    /// fastest tree, this one): a binary SAH box
     /// tree built for packet leaves ([`bvh::BuildOptions::wide`]) collapsed
     /// to eight children per node, tested with AVX2 where the CPU has it.
     Bvh8,
@@ -71,8 +74,8 @@ impl FromStr for AccelKind {
         match s {
             "brute" => Ok(AccelKind::Brute),
             "bvh4" => Ok(AccelKind::Bvh4),
-            "bvh8" => Ok(AccelKind::Bvh8),
-            _ if s == "bvh" || s.starts_with("bvh:") => s.parse().map(AccelKind::Bvh),
+            "bvh" | "bvh8" => Ok(AccelKind::Bvh8),
+            _ if s == "bvh2" || s.starts_with("bvh:") => s.parse().map(AccelKind::Bvh),
             #[cfg(feature = "embree")]
             _ if s.starts_with("embree") => s.parse().map(AccelKind::Embree),
             #[cfg(not(feature = "embree"))]
@@ -80,8 +83,8 @@ impl FromStr for AccelKind {
                 "accelerator `{s}` needs Embree, but this raylab was built without the `embree` feature"
             )),
             _ => Err(format!(
-                "unknown accelerator `{s}` (expected `brute`, {}, `bvh4`, `bvh8` or \
-                 `embree[:low|medium|high][+robust]`)",
+                "unknown accelerator `{s}` (expected `brute`, `bvh` (the fastest tree, \
+                 `bvh8`), {}, `bvh4`, `bvh8` or `embree[:low|medium|high][+robust]`)",
                 bvh::BVH_GRAMMAR
             )),
         }

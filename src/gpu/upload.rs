@@ -264,15 +264,15 @@ pub fn pack(scene: &Scene) -> Result<Packed, String> {
         }
         Accelerator::Bvh8(_) => {
             return Err(
-                "the GPU port has no 8-wide tree; on the GPU use --accel brute, \
-                        bvh[:<volume>…] or bvh4"
+                "the GPU port has no 8-wide tree (`bvh` and `bvh8` name it); on the GPU \
+                 use --accel brute, bvh2, bvh:<volume>… or bvh4"
                     .into(),
             )
         }
         #[cfg(feature = "embree")]
         Accelerator::Embree(_) => {
             return Err("Embree's tree lives inside Embree and cannot be uploaded; \
-                        on the GPU use --accel brute, bvh[:<volume>…] or bvh4"
+                        on the GPU use --accel brute, bvh2, bvh:<volume>… or bvh4"
                 .into())
         }
     };

@@ -32,6 +32,7 @@ impl Aabb {
         max: Vec3::splat(f32::NEG_INFINITY),
     };
 
+    #[inline]
     pub fn union(self, o: Aabb) -> Aabb {
         Aabb {
             min: self.min.min(o.min),
@@ -39,6 +40,7 @@ impl Aabb {
         }
     }
 
+    #[inline]
     pub fn include(self, p: Vec3) -> Aabb {
         Aabb {
             min: self.min.min(p),
@@ -46,10 +48,12 @@ impl Aabb {
         }
     }
 
+    #[inline]
     pub fn centre(&self) -> Vec3 {
         0.5 * (self.min + self.max)
     }
 
+    #[inline]
     pub fn extent(&self) -> Vec3 {
         self.max - self.min
     }
@@ -58,7 +62,18 @@ impl Aabb {
         self.min.cmpgt(self.max).any()
     }
 
+    /// Corner `i` of 8: bit 0 of `i` picks max x over min x, bit 1 y, bit 2 z.
+    pub fn corner(&self, i: usize) -> Vec3 {
+        let pick = |bit: usize, lo: f32, hi: f32| if i & bit == 0 { lo } else { hi };
+        Vec3::new(
+            pick(1, self.min.x, self.max.x),
+            pick(2, self.min.y, self.max.y),
+            pick(4, self.min.z, self.max.z),
+        )
+    }
+
     /// Surface area (0 for an empty box).
+    #[inline]
     pub fn surface_area(&self) -> f32 {
         let e = (self.max - self.min).max(Vec3::ZERO);
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)

@@ -182,7 +182,12 @@ pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>> {
     let load_seconds = t.elapsed().as_secs_f64();
     let bounded = scene.prims.len() - scene.unbounded.len();
     let accels = if opts.accels.is_empty() {
-        default_accels(bounded)
+        let mut v = default_accels(bounded);
+        if opts.device == super::render::Device::Gpu {
+            // The GPU port has no 8-wide tree.
+            v.retain(|&k| k != AccelKind::Bvh8);
+        }
+        v
     } else {
         opts.accels.clone()
     };

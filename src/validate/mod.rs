@@ -195,13 +195,13 @@ impl Default for Options {
 }
 
 /// The default accelerators for `n` primitives: brute force below
-/// [`BRUTE_LIMIT`], and the default BVH.
+/// [`BRUTE_LIMIT`], and the fastest tree (`bvh`, that is `bvh8`).
 pub fn default_accels(n: usize) -> Vec<AccelKind> {
     let mut v = Vec::new();
     if n < BRUTE_LIMIT {
         v.push(AccelKind::Brute);
     }
-    v.push(AccelKind::Bvh(BvhConfig::default()));
+    v.push(AccelKind::Bvh8);
     v
 }
 

@@ -59,6 +59,11 @@ impl<V> Node<V> {
     }
 }
 
+/// Copies of the primitives `indices` names, in that (leaf) order.
+fn leaf_order(prims: &[Primitive], indices: &[u32]) -> PrimArrays {
+    PrimArrays::new(indices.iter().map(|&i| &prims[i as usize]))
+}
+
 /// A node as the traversal reads it: for an interior node, both children's
 /// volumes (in the volume's [`BoundingVolume::Pair`] layout) with the index
 /// of the first child, so that one visit reads one record (64 bytes for
@@ -193,8 +198,8 @@ impl<V: BoundingVolume> Bvh<V> {
     pub fn build(prims: &[Primitive], ids: Vec<u32>, options: BuildOptions) -> Self {
         let start = Instant::now();
         let (nodes, indices) = build::build(prims, ids, &options);
-        let packed = pack(&nodes);
-        let leaf_prims = PrimArrays::new(indices.iter().map(|&i| &prims[i as usize]));
+        // Two independent copies of what the build made: side by side.
+        let (packed, leaf_prims) = rayon::join(|| pack(&nodes), || leaf_order(prims, &indices));
         Bvh {
             nodes,
             packed,
@@ -205,16 +210,24 @@ impl<V: BoundingVolume> Bvh<V> {
         }
     }
 
+    /// What [`Self::build`] makes before it packs the nodes for traversal:
+    /// the node array, the index array and the leaf-ordered primitives,
+    /// for the wide trees collapsed from it (which never traverse the
+    /// binary nodes, so packing them would be wasted).
+    pub(super) fn build_parts(
+        prims: &[Primitive],
+        ids: Vec<u32>,
+        options: &BuildOptions,
+    ) -> (Vec<Node<V>>, Vec<u32>, PrimArrays) {
+        let (nodes, indices) = build::build(prims, ids, options);
+        let leaf_prims = leaf_order(prims, &indices);
+        (nodes, indices, leaf_prims)
+    }
+
     /// The flattened nodes; the root is `nodes()[0]` (empty for no
     /// primitives).
     pub fn nodes(&self) -> &[Node<V>] {
         &self.nodes
-    }
-
-    /// The node array, the index array and the leaf-ordered primitives,
-    /// for the 4-wide tree built from this one.
-    pub(super) fn into_parts(self) -> (Vec<Node<V>>, Vec<u32>, PrimArrays) {
-        (self.nodes, self.indices, self.leaf_prims)
     }
 
     /// Primitive indices (into the scene's list) in leaf order.
@@ -485,19 +498,24 @@ impl BvhConfig {
     }
 }
 
-/// The grammar of BVH names, for error messages.
-pub const BVH_GRAMMAR: &str = "`bvh[:<volume>[:<builder>[:<leaf size>]]]` with <volume> one of \
-     aabb, sphere, sphere-ritter, ellipsoid, ellipsoid-ritter (default aabb), <builder> s3 \
-     (median split on the longest axis) or sah (binned SAH, the default), <leaf size> 1–1000 \
-     (default 4); `bvh` means `bvh:aabb:sah`";
+/// The grammar of binary-BVH names, for error messages.
+pub const BVH_GRAMMAR: &str = "`bvh:<volume>[:<builder>[:<leaf size>]]` with <volume> one of \
+     aabb, sphere, sphere-ritter, ellipsoid, ellipsoid-ritter, <builder> s3 (median split on the \
+     longest axis) or sah (binned SAH, the default), <leaf size> 1–1000 (default 4); `bvh2` \
+     means `bvh:aabb:sah`, the binary box tree";
 
 impl FromStr for BvhConfig {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         let bad = |what: String| format!("bad BVH name `{s}`: {what}; expected {BVH_GRAMMAR}");
+        match s {
+            "bvh2" => return Ok(BvhConfig::default()),
+            "bvh" => return Err(bad("plain `bvh` names the fastest tree, `bvh8`".into())),
+            _ => {}
+        }
         let mut parts = s.split(':');
         if parts.next() != Some("bvh") {
-            return Err(bad("it does not start with `bvh`".into()));
+            return Err(bad("it does not start with `bvh:`".into()));
         }
         let mut config = BvhConfig::default();
         if let Some(v) = parts.next() {

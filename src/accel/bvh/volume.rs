@@ -145,6 +145,7 @@ impl BoundingVolume for Aabb {
     const NAME: &'static str = "aabb";
     const ROUND_ROBIN_AXES: bool = false;
 
+    #[inline]
     fn from_bounds(b: &Aabb) -> Self {
         *b
     }
@@ -162,6 +163,7 @@ impl BoundingVolume for Aabb {
         self.slab(ray.ray.origin, ray.inv_dir, t_max)
     }
 
+    #[inline]
     fn surface_area(&self) -> f32 {
         Aabb::surface_area(self)
     }
@@ -224,6 +226,7 @@ impl BoundingVolume for BoundingSphere {
 
     /// S3's fit: centre = midpoint of the box's min and max corners,
     /// radius = distance from the centre to the corners.
+    #[inline]
     fn from_bounds(b: &Aabb) -> Self {
         let (centre, h) = centre_and_half_extent(b);
         BoundingSphere {
@@ -256,6 +259,7 @@ impl BoundingVolume for BoundingSphere {
         )
     }
 
+    #[inline]
     fn surface_area(&self) -> f32 {
         4.0 * PI * self.radius * self.radius
     }
@@ -545,11 +549,7 @@ mod tests {
         };
         let e = BoundingEllipsoid::from_bounds(&b);
         for i in 0..8 {
-            let corner = Vec3::new(
-                if i & 1 == 0 { b.min.x } else { b.max.x },
-                if i & 2 == 0 { b.min.y } else { b.max.y },
-                if i & 4 == 0 { b.min.z } else { b.max.z },
-            );
+            let corner = b.corner(i);
             let q = ((corner - e.centre) * e.inv_radii).length();
             assert!(q <= 1.0 && q > 1.0 - 1e-5, "{q}");
         }

@@ -146,8 +146,7 @@ where
     /// `bvh8`, the defaults for `bvh4`) and collapse it.
     pub fn build(prims: &[Primitive], ids: Vec<u32>, options: BuildOptions) -> Self {
         let start = std::time::Instant::now();
-        let binary = Bvh::<Aabb>::build(prims, ids, options);
-        let (bin, indices, leaf_prims) = binary.into_parts();
+        let (bin, indices, leaf_prims) = Bvh::<Aabb>::build_parts(prims, ids, &options);
         let tris = leaf_prims.triangles_only().filter(|t| !t.is_empty());
         let mut c = Collapse::<W>::new(&bin, tris, &options);
         let root = bin.first().map(|r| {

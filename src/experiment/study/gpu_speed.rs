@@ -103,7 +103,7 @@ typed_params!(
         ParamDoc {
             name: "accel",
             doc: "accelerator, as `raylab render --accel`, of those the GPU renders: \
-                  `brute`, `bvh[:VOLUME[:BUILDER]]` or `bvh4`; required",
+                  `brute`, `bvh2`, `bvh:VOLUME[:BUILDER]` or `bvh4`; required",
         },
         ParamDoc {
             name: "device",
@@ -253,7 +253,7 @@ impl Study for GpuSpeed {
         ) {
             return Err(ParamError::new(
                 "accel",
-                "the GPU port has no Embree and no 8-wide tree: give `brute`, `bvh[:VOLUME[:BUILDER]]` or `bvh4`",
+                "the GPU port has no Embree and no 8-wide tree: give `brute`, `bvh2`, `bvh:VOLUME[:BUILDER]` or `bvh4` (plain `bvh` is `bvh8`)",
             ));
         }
         let res = p.resolution.unwrap_or(Resolution {
@@ -416,11 +416,14 @@ mod tests {
     #[test]
     fn configure_checks_device_and_accelerator() {
         let base = Path::new(".");
-        let c = GpuSpeed.configure(params("gpu", "bvh"), base).ok().unwrap();
+        let c = GpuSpeed
+            .configure(params("gpu", "bvh2"), base)
+            .ok()
+            .unwrap();
         assert_eq!((c.device, c.width, c.height), (Device::Gpu, 200, 200));
         assert_eq!(c.brute_max_faces, DEFAULT_BRUTE_MAX_FACES);
         let e = GpuSpeed
-            .configure(params("tpu", "bvh"), base)
+            .configure(params("tpu", "bvh2"), base)
             .err()
             .unwrap();
         assert!(e.to_string().contains("\"cpu\" or \"gpu\""), "{e}");
