@@ -25,7 +25,11 @@
 //!
 //! Every row also gives its throughput for each set relative to Embree 4's
 //! (`embree`: high build quality, robust, `rtcIntersect1`/`rtcOccluded1` on
-//! the same rays, same thread), the issue's target being ≥ 0.5×.
+//! the same rays, same thread), the issue's target being ≥ 0.5×, and
+//! relative to the obvhs crate's compressed 8-wide BVH (`obvhs`, a peer
+//! Rust library: its `medium_build` preset, `ray_traverse` /
+//! `ray_traverse_miss` one ray at a time, same rays, same thread; its own
+//! row is there too), the target for `bvh8` being > 1× on every set.
 //!
 //! Run with `make bench` or `cargo bench --bench accel`. To measure a subset,
 //! `RAYLAB_BENCH_ACCELS=bvh:aabb:sah,embree` picks accelerators (names as in
@@ -49,6 +53,8 @@ const BRUTE_STRIDE: usize = 16;
 /// The Embree configuration every row is compared with: the one the issue's
 /// reference figures were measured with.
 const EMBREE: &str = "embree:high+robust";
+/// The peer library every row is also compared with (src/accel/obvhs.rs).
+const OBVHS: &str = "obvhs";
 
 /// Median wall-clock seconds of `f` over `REPEATS` runs after one warm-up.
 fn median_seconds(mut f: impl FnMut()) -> f64 {
@@ -140,7 +146,8 @@ fn main() {
             }
         );
         println!(
-            "  {:<20} {:>8} {:>8} {:>8} {:>8} {:>9} {:>7}  vs Embree (c / s / p / r)",
+            "  {:<20} {:>8} {:>8} {:>8} {:>8} {:>9} {:>7}  vs Embree (c / s / p / r)    \
+             vs obvhs (c / s / p / r)",
             "accelerator", "camera", "shadow", "path", "random", "build ms", "vs sah"
         );
         let bounded: Vec<u32> = (0..scene.prims.len() as u32)
@@ -154,11 +161,14 @@ fn main() {
         }
         #[cfg(feature = "embree")]
         kinds.push(EMBREE.parse().expect("a valid Embree name"));
+        #[cfg(feature = "obvhs")]
+        kinds.push(OBVHS.parse().expect("a valid obvhs name"));
         if let Some(only) = &only_accels {
             kinds.retain(|k| only.contains(&k.to_string()));
         }
         let mut sah_primary = None;
         let mut embree = [f64::NAN; 4];
+        let mut obvhs = [f64::NAN; 4];
         let mut rows = Vec::new();
         for kind in kinds {
             let build = median_seconds(|| {
@@ -179,6 +189,9 @@ fn main() {
             if kind.to_string() == EMBREE {
                 embree = tput;
             }
+            if kind.to_string() == OBVHS {
+                obvhs = tput;
+            }
             if kind.to_string() == "bvh:aabb:sah" {
                 sah_primary = Some(tput[0]);
             }
@@ -188,17 +201,22 @@ fn main() {
             }
             rows.push((kind, tput, build));
         }
+        // Each set's throughput over another's: "1.234× 0.987× …".
+        let ratios = |tput: &[f64; 4], of: &[f64; 4]| {
+            (0..4)
+                .map(|k| format!("{:.3}×", tput[k] / of[k]))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
         for (kind, tput, build) in rows {
             let rel = sah_primary.map_or(f64::NAN, |s| tput[0] / s);
             println!(
-                "  {:<20} {} {:>9.2} {rel:>6.3}×  {}",
+                "  {:<20} {} {:>9.2} {rel:>6.3}×  {}  {}",
                 kind.to_string(),
                 tput.map(|t| format!("{:>8}", sig4(t))).join(" "),
                 build * 1e3,
-                (0..4)
-                    .map(|k| format!("{:.3}×", tput[k] / embree[k]))
-                    .collect::<Vec<_>>()
-                    .join(" "),
+                ratios(&tput, &embree),
+                ratios(&tput, &obvhs),
             );
         }
     }

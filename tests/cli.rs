@@ -301,6 +301,32 @@ fn bad_integrator_arguments_fail_cleanly() {
     assert!(!out.exists());
 }
 
+/// obvhs holds triangle meshes only: a scene of a sphere is refused, the
+/// sphere named, with no output and no panic.
+#[cfg(feature = "obvhs")]
+#[test]
+fn obvhs_refuses_a_sphere_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "sphere.toml", GOOD);
+    let out = dir.path().join("out.png");
+    let o = raylab(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--accel",
+        "obvhs",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "should fail: {err}");
+    assert!(!out.exists(), "no output may be left behind");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        err.contains("obvhs") && err.contains("triangle meshes only") && err.contains("1 sphere"),
+        "{err}"
+    );
+}
+
 #[test]
 fn help_documents_every_render_option() {
     let o = raylab(&["render", "--help"]);

@@ -488,11 +488,11 @@ fn diff_reports_metrics_and_errors() {
 }
 
 /// The shipped Embree speed manifest plans its runs, and its quick form
-/// runs: both sides traced the same rays (hit/miss agreement up to the few
-/// rays rounding decides at shared edges: at most 1 in 10³), every
-/// throughput and ratio is a positive number, and the counts of our side's
-/// work are there.
-#[cfg(feature = "embree")]
+/// runs: all three sides (ours, Embree, the obvhs peer) traced the same
+/// rays (hit/miss agreement up to the few rays rounding decides at shared
+/// edges: at most 1 in 10³), every throughput and ratio is a positive
+/// number, and the counts of our side's work are there.
+#[cfg(all(feature = "embree", feature = "obvhs"))]
 #[test]
 fn embree_speed_manifest_measures_both_sides_on_the_same_rays() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("analysis/embree-speed.toml");
@@ -525,7 +525,16 @@ fn embree_speed_manifest_measures_both_sides_on_the_same_rays() {
                 assert!(v.is_finite() && v > 0.0, "{col} {kind}: {v}");
             }
             assert!(get(&format!("{kind}_volume_tests_per_ray")) >= 1.0);
+            // The peer (obvhs) on the same rays: its throughput, the
+            // ratio, and hit/miss agreement with ours up to edge roundings
+            // (obvhs's triangle test is not watertight; see tests/obvhs.rs).
+            assert!(get(&format!("{kind}_peer_hit_disagree")) <= rays * 1e-3);
+            for col in ["peer_{}_mrays_s", "{}_peer_ratio"] {
+                let v = get(&col.replace("{}", kind));
+                assert!(v.is_finite() && v > 0.0, "{col} {kind}: {v}");
+            }
         }
+        assert!(get("peer_build_median_s") > 0.0);
         n += 1;
     }
     assert_eq!(n, 2);

@@ -8,11 +8,15 @@ pub mod brute;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
+#[cfg(feature = "obvhs")]
+pub mod obvhs;
 
 pub use brute::Brute;
 pub use bvh::{Bvh, Bvh4, Bvh8, BvhConfig, BvhStats};
 #[cfg(feature = "embree")]
 pub use embree::{EmbreeAccel, EmbreeConfig};
+#[cfg(feature = "obvhs")]
+pub use obvhs::ObvhsAccel;
 
 use bvh::{Aabb, BoundingEllipsoid, BoundingSphere, BuildOptions, VolumeKind};
 
@@ -66,6 +70,10 @@ pub enum AccelKind {
     /// Embree 4 (`embree`, `embree:low|medium|high`, `…+robust`).
     #[cfg(feature = "embree")]
     Embree(EmbreeConfig),
+    /// The obvhs crate's compressed 8-wide BVH (`obvhs`), a peer library
+    /// measured beside Embree; triangles only.
+    #[cfg(feature = "obvhs")]
+    Obvhs,
 }
 
 impl FromStr for AccelKind {
@@ -82,9 +90,17 @@ impl FromStr for AccelKind {
             _ if s.starts_with("embree") => Err(format!(
                 "accelerator `{s}` needs Embree, but this raylab was built without the `embree` feature"
             )),
+            #[cfg(feature = "obvhs")]
+            "obvhs" => Ok(AccelKind::Obvhs),
+            #[cfg(not(feature = "obvhs"))]
+            "obvhs" => Err(
+                "accelerator `obvhs` needs the obvhs crate, but this raylab was built without \
+                 the `obvhs` feature"
+                    .to_string(),
+            ),
             _ => Err(format!(
                 "unknown accelerator `{s}` (expected `brute`, `bvh` (the fastest tree, \
-                 `bvh8`), {}, `bvh4`, `bvh8` or `embree[:low|medium|high][+robust]`)",
+                 `bvh8`), {}, `bvh4`, `bvh8`, `embree[:low|medium|high][+robust]` or `obvhs`)",
                 bvh::BVH_GRAMMAR
             )),
         }
@@ -100,6 +116,8 @@ impl fmt::Display for AccelKind {
             AccelKind::Bvh8 => write!(f, "bvh8"),
             #[cfg(feature = "embree")]
             AccelKind::Embree(c) => write!(f, "{c}"),
+            #[cfg(feature = "obvhs")]
+            AccelKind::Obvhs => write!(f, "obvhs"),
         }
     }
 }
@@ -121,12 +139,16 @@ pub enum Accelerator {
     /// Embree 4's own BVH over Embree's own primitives.
     #[cfg(feature = "embree")]
     Embree(EmbreeAccel),
+    /// The obvhs crate's CWBVH over obvhs's own copy of the triangles.
+    #[cfg(feature = "obvhs")]
+    Obvhs(ObvhsAccel),
 }
 
 impl Accelerator {
     /// Build an accelerator of `kind` over the primitives `bounded` (indices
-    /// into `prims`). Only Embree can fail (no usable device, out of
-    /// memory): the error says what Embree reported.
+    /// into `prims`). Only Embree (no usable device, out of memory: the
+    /// error says what Embree reported) and obvhs (anything but triangles)
+    /// can fail.
     pub fn build(kind: AccelKind, prims: &[Primitive], bounded: Vec<u32>) -> Result<Self, String> {
         Ok(match kind {
             AccelKind::Brute => Accelerator::Brute(Brute::new(bounded)),
@@ -150,6 +172,10 @@ impl Accelerator {
             AccelKind::Embree(c) => Accelerator::Embree(
                 EmbreeAccel::build(prims, &bounded, c).map_err(|e| e.to_string())?,
             ),
+            #[cfg(feature = "obvhs")]
+            AccelKind::Obvhs => {
+                Accelerator::Obvhs(ObvhsAccel::build(prims, &bounded).map_err(|e| e.to_string())?)
+            }
         })
     }
 
@@ -163,6 +189,8 @@ impl Accelerator {
             Accelerator::Bvh4(_) | Accelerator::Bvh8(_) => None,
             #[cfg(feature = "embree")]
             Accelerator::Embree(_) => None,
+            #[cfg(feature = "obvhs")]
+            Accelerator::Obvhs(_) => None,
         }
     }
 
@@ -177,6 +205,8 @@ impl Accelerator {
             Accelerator::Bvh4(_) | Accelerator::Bvh8(_) => None,
             #[cfg(feature = "embree")]
             Accelerator::Embree(_) => None,
+            #[cfg(feature = "obvhs")]
+            Accelerator::Obvhs(_) => None,
         }
     }
 
@@ -190,6 +220,8 @@ impl Accelerator {
             Accelerator::Bvh8(_) => AccelKind::Bvh8,
             #[cfg(feature = "embree")]
             Accelerator::Embree(a) => AccelKind::Embree(a.config()),
+            #[cfg(feature = "obvhs")]
+            Accelerator::Obvhs(_) => AccelKind::Obvhs,
         }
     }
 }
@@ -212,6 +244,8 @@ impl Accel for Accelerator {
             Accelerator::Bvh8(a) => a.intersect(prims, ray, t_max, stats),
             #[cfg(feature = "embree")]
             Accelerator::Embree(a) => a.intersect(prims, ray, t_max, stats),
+            #[cfg(feature = "obvhs")]
+            Accelerator::Obvhs(a) => a.intersect(prims, ray, t_max, stats),
         }
     }
 
@@ -232,6 +266,8 @@ impl Accel for Accelerator {
             Accelerator::Bvh8(a) => a.occluded(prims, ray, t_max, stats),
             #[cfg(feature = "embree")]
             Accelerator::Embree(a) => a.occluded(prims, ray, t_max, stats),
+            #[cfg(feature = "obvhs")]
+            Accelerator::Obvhs(a) => a.occluded(prims, ray, t_max, stats),
         }
     }
 }

@@ -275,6 +275,12 @@ pub fn pack(scene: &Scene) -> Result<Packed, String> {
                         on the GPU use --accel brute, bvh2, bvh:<volume>… or bvh4"
                 .into())
         }
+        #[cfg(feature = "obvhs")]
+        Accelerator::Obvhs(_) => {
+            return Err("the GPU port does not run obvhs's tree; \
+                        on the GPU use --accel brute, bvh2, bvh:<volume>… or bvh4"
+                .into())
+        }
     };
     if kernel.accel == 1 {
         p.has_root = u32::from(!nodes.is_empty());

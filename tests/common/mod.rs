@@ -3,6 +3,7 @@
 #![allow(dead_code, unused_imports)]
 
 pub mod experiment;
+pub mod meshes;
 
 /// The library's generator, shared by the tests.
 pub use raylab::math::SplitMix64;

@@ -1,27 +1,38 @@
 //! `kind = "accel_speed"`: traversal throughput of one of raylab's
-//! accelerators against a reference accelerator (Embree 4 by default) on
-//! identical rays, measured in the same run (`analysis/embree-speed.toml`).
+//! accelerators against a reference accelerator (Embree 4 by default) and,
+//! optionally, a peer (`peer`, e.g. the obvhs crate's 8-wide compressed
+//! BVH) on identical rays, measured in the same run
+//! (`analysis/embree-speed.toml`).
 //!
-//! One run loads a scene, builds both accelerators (each build timed:
+//! One run loads a scene, builds the accelerators (each build timed:
 //! `warmup` untimed builds, then `repeats` timed ones, medians reported),
 //! makes the four ray sets of [`crate::workload`] (primary, shadow,
-//! diffuse, random) once, and then, for each set, times the two
-//! accelerators alternately (`warmup` untimed passes each, then `repeats`
-//! timed passes of A, B, A, B, …) so that a disturbance of the machine
-//! falls on both sides rather than one. The timed loop is
-//! [`trace`]: `intersect` (closest hit) or `occluded` (shadow rays: any
-//! hit) on each ray, through the accelerators' public interface — Embree's
-//! through `rtcIntersect1`/`rtcOccluded1`, one ray at a time — on a rayon
-//! pool of `threads` workers built before any clock starts.
+//! diffuse, random) once, and then, for each set, times the accelerators
+//! alternately (`warmup` untimed passes each, then `repeats` timed passes
+//! of A, B, A, B, … or, with a peer, A, B, C, A, B, C, …) so that a
+//! disturbance of the machine falls on every side rather than one. The
+//! timed loop is [`trace`]: `intersect` (closest hit) or `occluded`
+//! (shadow rays: any hit) on each ray, through the accelerators' public
+//! interface — Embree's through `rtcIntersect1`/`rtcOccluded1`, obvhs's
+//! through `CwBvh::ray_traverse`/`ray_traverse_miss`, one ray at a time —
+//! on a rayon pool of `threads` workers built before any clock starts.
 //!
 //! Columns `{kind}_nodes_per_ray`, `…_volume_tests_per_ray` and
 //! `…_prim_tests_per_ray` count the work behind our side's time (one extra
-//! pass with [`Counters`]; Embree does not count).
+//! pass with [`Counters`]; Embree and obvhs do not count).
 //!
-//! The two sides must agree on which rays hit (`{kind}_hit_disagree`: the
-//! number of rays where only one of them found a hit; rounding at edges
-//! allows a handful in a million, see `raylab validate`): a throughput
-//! figure for a different answer would compare nothing.
+//! The sides must agree on which rays hit (`{kind}_hit_disagree` against
+//! the reference, `{kind}_peer_hit_disagree` against the peer: the number
+//! of rays where only one of the two found a hit; rounding at edges allows
+//! a handful in a million, see `raylab validate`, and obvhs's triangle
+//! test, not watertight, a few more): a throughput figure for a different
+//! answer would compare nothing.
+//!
+//! The peer's columns (`peer_build_median_s`, then per ray kind
+//! `peer_{kind}_median_s`, `peer_{kind}_mrays_s`, `{kind}_peer_ratio` =
+//! ours / peer, `{kind}_peer_hit_disagree`) come after all the others, so
+//! a table without a peer has the columns it always had, followed by these
+//! left empty.
 
 use super::{RunContext, Study, Timings};
 use crate::accel::{Accel, AccelKind, Accelerator};
@@ -57,6 +68,9 @@ pub struct AccelSpeedParams {
     /// The accelerator it is measured against.
     #[serde(default, deserialize_with = "parsed_opt")]
     pub reference: Option<AccelKind>,
+    /// A third accelerator timed beside the two.
+    #[serde(default, deserialize_with = "parsed_opt")]
+    pub peer: Option<AccelKind>,
     /// Camera rays "WxH".
     #[serde(default, deserialize_with = "parsed_opt")]
     pub resolution: Option<Resolution>,
@@ -87,6 +101,11 @@ typed_params!(
             doc: "the accelerator it is measured against (default `embree:high+robust`)",
         },
         ParamDoc {
+            name: "peer",
+            doc: "a third accelerator timed beside the two on the same rays, e.g. `obvhs` \
+                  (default none: its `peer_…` columns are left empty)",
+        },
+        ParamDoc {
             name: "resolution",
             doc: "camera rays \"WxH\" (default \"800x600\"); shadow and diffuse rays start \
                   at their hits",
@@ -111,6 +130,7 @@ pub struct Config {
     scene: PathBuf,
     accel: AccelKind,
     reference: AccelKind,
+    peer: Option<AccelKind>,
     width: u32,
     height: u32,
     random: Option<usize>,
@@ -187,7 +207,49 @@ impl Serialize for PerKind {
     }
 }
 
-/// One row: both accelerators on one scene's four ray sets.
+/// The peer's columns of one ray set.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PeerCells {
+    /// Median time of the peer.
+    pub median_s: Secs,
+    /// Throughput of the peer, Mrays/s.
+    pub mrays_s: Fixed<4>,
+    /// Our throughput over the peer's.
+    pub ratio: Fixed<4>,
+    /// Rays where only one of ours and the peer found a hit.
+    pub hit_disagree: usize,
+}
+
+/// The peer's columns of every ray set, in [`Workload::KINDS`] order:
+/// `peer_camera_median_s`, `peer_camera_mrays_s`, `camera_peer_ratio`,
+/// `camera_peer_hit_disagree`, `peer_shadow_median_s`, …; every cell empty
+/// without a peer.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PeerPerKind(pub Option<[PeerCells; 4]>);
+
+impl Serialize for PeerPerKind {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut map = s.serialize_map(None)?;
+        for (i, k) in Workload::KINDS.iter().enumerate() {
+            let c = self.0.map(|cells| cells[i]);
+            map.serialize_entry(&format!("peer_{k}_median_s"), &c.map(|c| c.median_s))?;
+            map.serialize_entry(&format!("peer_{k}_mrays_s"), &c.map(|c| c.mrays_s))?;
+            map.serialize_entry(&format!("{k}_peer_ratio"), &c.map(|c| c.ratio))?;
+            map.serialize_entry(
+                &format!("{k}_peer_hit_disagree"),
+                &c.map(|c| c.hit_disagree),
+            )?;
+        }
+        map.end()
+    }
+}
+
+/// Rays where exactly one of two sides found a hit.
+fn disagreements(a: &[bool], b: &[bool]) -> usize {
+    a.iter().zip(b).filter(|(a, b)| a != b).count()
+}
+
+/// One row: the accelerators on one scene's four ray sets.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct AccelSpeedRow {
     /// Triangles of the scene.
@@ -203,6 +265,11 @@ pub struct AccelSpeedRow {
     /// The ray sets.
     #[serde(flatten)]
     pub kinds: PerKind,
+    /// Median build time of the peer (empty without one).
+    pub peer_build_median_s: Option<Secs>,
+    /// The peer's columns of each ray set (empty without one).
+    #[serde(flatten)]
+    pub peer: PeerPerKind,
 }
 
 impl Study for AccelSpeed {
@@ -219,6 +286,7 @@ impl Study for AccelSpeed {
             scene: scene_file(base_dir, &p.scene)?,
             accel: or_default(p.accel, "accel", "bvh4")?,
             reference: or_default(p.reference, "reference", "embree:high+robust")?,
+            peer: p.peer,
             width: res.width,
             height: res.height,
             random: p.random_rays.map(|n| n.get() as usize),
@@ -244,9 +312,14 @@ impl Study for AccelSpeed {
             .filter(|&i| scene.prims[i as usize].bounds().is_some())
             .collect();
         let (warmup, repeats) = (ctx.settings.warmup, ctx.settings.repeats);
+        // The sides in timing order: ours, the reference, the peer.
+        let kinds_built: Vec<AccelKind> = [cfg.accel, cfg.reference]
+            .into_iter()
+            .chain(cfg.peer)
+            .collect();
         let mut sides = Vec::new();
-        let mut build_s = [Secs::default(); 2];
-        for (i, kind) in [cfg.accel, cfg.reference].into_iter().enumerate() {
+        let mut build_s = vec![Secs::default(); kinds_built.len()];
+        for (i, &kind) in kinds_built.iter().enumerate() {
             let build = Timings::measure(warmup, repeats, || {
                 Accelerator::build(kind, &scene.prims, bounded.clone())
             });
@@ -261,13 +334,14 @@ impl Study for AccelSpeed {
             .num_threads(cfg.threads)
             .build()?;
         let mut kinds = PerKind::default();
-        for (k, cells) in Workload::KINDS.into_iter().zip(&mut kinds.0) {
+        let mut peer = [PeerCells::default(); 4];
+        for (j, (k, cells)) in Workload::KINDS.into_iter().zip(&mut kinds.0).enumerate() {
             let rays = work.get(k);
             let flags: Vec<Vec<bool>> = sides
                 .iter()
                 .map(|a| hit_flags(a, &scene, rays, k.any_hit()))
                 .collect();
-            let mut times: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+            let mut times: Vec<Vec<f64>> = vec![Vec::new(); sides.len()];
             pool.install(|| {
                 for a in &sides {
                     for _ in 0..warmup {
@@ -283,19 +357,25 @@ impl Study for AccelSpeed {
             });
             cells.rays = rays.len();
             cells.hits = flags[0].iter().filter(|&&h| h).count();
-            cells.hit_disagree = flags[0]
+            cells.hit_disagree = disagreements(&flags[0], &flags[1]);
+            let medians: Vec<f64> = times.iter().map(|t| super::median(t)).collect();
+            let mrays: Vec<f64> = medians
                 .iter()
-                .zip(&flags[1])
-                .filter(|(a, b)| a != b)
-                .count();
-            let mut mrays = [0.0; 2];
+                .map(|m| rays.len() as f64 / m / 1e6)
+                .collect();
             for i in 0..SIDES.len() {
-                let median = super::median(&times[i]);
-                mrays[i] = rays.len() as f64 / median / 1e6;
-                cells.median_s[i] = Secs(median);
+                cells.median_s[i] = Secs(medians[i]);
                 cells.mrays_s[i] = Fixed(mrays[i]);
             }
             cells.ratio = Fixed(mrays[0] / mrays[1]);
+            if sides.len() > SIDES.len() {
+                peer[j] = PeerCells {
+                    median_s: Secs(medians[2]),
+                    mrays_s: Fixed(mrays[2]),
+                    ratio: Fixed(mrays[0] / mrays[2]),
+                    hit_disagree: disagreements(&flags[0], &flags[2]),
+                };
+            }
             // The work behind our side's time, counted in one more pass.
             let mut c = Counters::default();
             trace_serial(&sides[0], &scene, rays, k.any_hit(), &mut c);
@@ -313,6 +393,50 @@ impl Study for AccelSpeed {
             ours_build_median_s: build_s[0],
             ref_build_median_s: build_s[1],
             kinds,
+            peer_build_median_s: build_s.get(2).copied(),
+            peer: PeerPerKind(cfg.peer.map(|_| peer)),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::experiment::row::record;
+
+    /// Without a peer the row has the columns it had before peers (the
+    /// peer's come after all of them) and the peer's cells are empty; with
+    /// one they are filled.
+    #[test]
+    fn peer_columns_come_last_and_are_empty_without_a_peer() {
+        let rec = record(&AccelSpeedRow::default()).unwrap();
+        let first_peer = rec
+            .columns
+            .iter()
+            .position(|c| c == "peer_build_median_s")
+            .unwrap();
+        assert_eq!(rec.columns.len() - first_peer, 1 + 4 * 4);
+        assert_eq!(rec.columns[first_peer - 1], "random_prim_tests_per_ray");
+        assert!(rec.cells[first_peer..].iter().all(String::is_empty));
+        assert_eq!(rec.get("camera_ratio"), Some("0.0000"));
+
+        let row = AccelSpeedRow {
+            peer_build_median_s: Some(Secs(0.5)),
+            peer: PeerPerKind(Some(
+                [PeerCells {
+                    median_s: Secs(0.25),
+                    mrays_s: Fixed(2.0),
+                    ratio: Fixed(1.5),
+                    hit_disagree: 3,
+                }; 4],
+            )),
+            ..Default::default()
+        };
+        let filled = record(&row).unwrap();
+        assert_eq!(filled.columns, rec.columns);
+        assert_eq!(filled.get("peer_build_median_s"), Some("0.500000000"));
+        assert_eq!(filled.get("peer_path_mrays_s"), Some("2.0000"));
+        assert_eq!(filled.get("random_peer_ratio"), Some("1.5000"));
+        assert_eq!(filled.get("shadow_peer_hit_disagree"), Some("3"));
     }
 }

@@ -62,8 +62,9 @@ pub static KINDS: &[StudyKind] = &[
     },
     StudyKind {
         name: "accel_speed",
-        summary: "raylab's BVH against a reference accelerator (Embree) on identical rays: \
-                  Mrays/s and their ratio, work per ray, build times",
+        summary: "raylab's BVH against a reference accelerator (Embree) and optionally a \
+                  peer (obvhs) on identical rays: Mrays/s and their ratios, work per ray, \
+                  build times",
         examples: &["analysis/embree-speed.toml"],
         study: &accel_speed::AccelSpeed,
     },
