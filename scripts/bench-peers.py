@@ -567,6 +567,8 @@ def main() -> None:
                     help="largest relative difference of the mean colours taken as agreement "
                          "(default 0.01; twice that for the halves)")
     ap.add_argument("--out", type=Path, help="write bench-peers.json and bench-peers.csv here")
+    ap.add_argument("--note", default="",
+                    help="free text recorded in bench-peers.json (e.g. where the raylab binary was built from)")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     ap.add_argument("--spec", help=argparse.SUPPRESS)
     ap.add_argument("--worker-image", help=argparse.SUPPRESS)
@@ -731,12 +733,14 @@ def run(args, variants, tmp: Path, mi, dr, np) -> None:
         args.out.mkdir(parents=True, exist_ok=True)
         meta = {
             "what": "raylab vs Mitsuba 3, same scene, spp and threads (scripts/bench-peers)",
+            "note": args.note,
             "date": started, "machine": {
                 "cpu_model": cpu_model(), "logical_cpus": os.cpu_count(), "platform": platform.platform(),
                 "load_average_before": load_before, "load_average_after": load_after},
             "versions": {"raylab": rl_version, "raylab_binary": str(args.raylab),
                          "raylab_binary_modified": _dt.datetime.fromtimestamp(
                              Path(args.raylab).stat().st_mtime, _dt.timezone.utc).isoformat(timespec="seconds"),
+                         # the checkout this script ran from; the binary may be another's
                          "repository_revision": git_revision(),
                          "mitsuba": info[variants[0]]["mitsuba"] if variants else None,
                          "drjit": info[variants[0]]["drjit"] if variants else None,
