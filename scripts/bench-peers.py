@@ -613,6 +613,7 @@ def run(args, variants, tmp: Path, mi, dr, np) -> None:
     samples = args.width * args.height * args.spp
     rl_version = subprocess.run([args.raylab, "--version"], capture_output=True, text=True).stdout.strip()
     started = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    binary_mtime = Path(args.raylab).stat().st_mtime
     load_before = os.getloadavg()
 
     scene_name = str(args.scene.relative_to(REPO) if args.scene.is_relative_to(REPO) else args.scene)
@@ -659,6 +660,10 @@ def run(args, variants, tmp: Path, mi, dr, np) -> None:
             record(f"mitsuba {v}", "timed", k, w.send(f"render {k}"))
     finals = {v: w.close() for v, w in workers.items()}
     load_after = os.getloadavg()
+    binary_changed = Path(args.raylab).stat().st_mtime != binary_mtime
+    if binary_changed:
+        print(f"warning: {args.raylab} was rebuilt during the run: its timings mix two builds",
+              file=sys.stderr)
 
     # The table.
     tools = ["raylab"] + [f"mitsuba {v}" for v in variants]
@@ -739,7 +744,8 @@ def run(args, variants, tmp: Path, mi, dr, np) -> None:
                 "load_average_before": load_before, "load_average_after": load_after},
             "versions": {"raylab": rl_version, "raylab_binary": str(args.raylab),
                          "raylab_binary_modified": _dt.datetime.fromtimestamp(
-                             Path(args.raylab).stat().st_mtime, _dt.timezone.utc).isoformat(timespec="seconds"),
+                             binary_mtime, _dt.timezone.utc).isoformat(timespec="seconds"),
+                         "raylab_binary_rebuilt_during_run": binary_changed,
                          # the checkout this script ran from; the binary may be another's
                          "repository_revision": git_revision(),
                          "mitsuba": info[variants[0]]["mitsuba"] if variants else None,
