@@ -6,7 +6,7 @@ CARGO ?= cargo
 RAYLAB := target/release/raylab
 OUT := out/demo
 
-.PHONY: all deps build demo test bench book clean
+.PHONY: all deps build demo test bench bench-peers book clean
 
 all: build
 
@@ -73,6 +73,15 @@ book: build
 ## bench: benchmarks (release builds; print ratios measured in one run).
 bench: deps
 	$(CARGO) bench
+
+## bench-peers: raylab against Mitsuba 3 (scalar and LLVM variants) on the Cornell
+## box, same scene, spp and threads, timed side by side and the images' mean
+## colours compared (scripts/bench-peers; installs mitsuba from PyPI into
+## .deps/peers-venv on first use). Not part of test or demo. Options go in
+## PEERS, e.g. make bench-peers PEERS="--spp 64 --runs 5 --threads 2 --out DIR".
+PEERS ?=
+bench-peers: build
+	RAYLAB=$(RAYLAB) scripts/bench-peers $(PEERS)
 
 clean:
 	$(CARGO) clean
