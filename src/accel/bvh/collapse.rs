@@ -43,7 +43,7 @@ pub(super) struct Collapse<'a, const W: usize> {
     /// The leaf-ordered triangles, when every primitive is one.
     tris: Option<&'a [Triangle]>,
     pub(super) nodes: Vec<WideNode<W>>,
-    pub(super) packets: Vec<TriPacket>,
+    pub(super) packets: Vec<TriPacket<W>>,
     /// Per binary node and k − 1: how many of k slots an opened node gives
     /// its left child, 0 when it takes one slot itself.
     split: Vec<[u8; W]>,

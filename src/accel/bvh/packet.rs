@@ -1,6 +1,7 @@
-//! SIMD leaves: a wide tree's leaf of triangles stored as packets of four,
-//! one 4-lane vector per vertex coordinate, and tested four at a time with
-//! the watertight test of [`Triangle::intersect`].
+//! SIMD leaves: a wide tree's leaf of triangles stored as packets of as
+//! many triangles as the tree is wide (four for `bvh4`, eight for `bvh8`),
+//! one array per vertex coordinate, and tested together with the
+//! watertight test of [`Triangle::intersect`].
 //!
 //! Bit-identical hits: every lane performs the scalar test's operations in
 //! the same order on the same `f32` values (Rust never fuses a multiply and
@@ -25,39 +26,38 @@
 use crate::accel::brute::{any_of, closest_of};
 use crate::shape::{PreparedRay, PrimHit, Triangle};
 use crate::stats::Stats;
-use glam::{BVec4A, Vec4};
 
-/// Up to four triangles of one leaf, lane i being slot `slot + i` of the
-/// tree's leaf order.
-#[repr(C, align(16))]
+/// Up to `L` triangles of one leaf (`L` = 4 for the 4-wide tree, 8 for the
+/// 8-wide one), lane i being slot `slot + i` of the tree's leaf order.
+#[repr(C, align(32))]
 #[derive(Clone, Copy, Debug)]
-pub struct TriPacket {
-    /// `p[v][a]`: coordinate `a` of vertex `v` of the four triangles.
-    pub p: [[Vec4; 3]; 3],
+pub struct TriPacket<const L: usize> {
+    /// `p[v][a][i]`: coordinate `a` of vertex `v` of triangle `i`.
+    pub p: [[[f32; L]; 3]; 3],
     /// The leaf-order slot of lane 0.
     pub slot: u32,
-    /// Lanes in use (1..=4); unused lanes repeat the last triangle.
+    /// Lanes in use (1..=L); unused lanes repeat the last triangle.
     pub lanes: u32,
 }
 
-impl TriPacket {
-    /// The packet of `tris[slot..slot + lanes]` (1 ≤ lanes ≤ 4).
+impl<const L: usize> TriPacket<L> {
+    /// The packet of `tris[slot..slot + lanes]` (1 ≤ lanes ≤ L).
     pub fn new(tris: &[Triangle], slot: usize, lanes: usize) -> Self {
-        debug_assert!((1..=4).contains(&lanes));
+        debug_assert!((1..=L).contains(&lanes) && L <= 32);
         let tri = |i: usize| &tris[slot + i.min(lanes - 1)];
         TriPacket {
             p: std::array::from_fn(|v| {
-                std::array::from_fn(|a| Vec4::from_array(std::array::from_fn(|i| tri(i).p[v][a])))
+                std::array::from_fn(|a| std::array::from_fn(|i| tri(i).p[v][a]))
             }),
             slot: slot as u32,
             lanes: lanes as u32,
         }
     }
 
-    /// Slots `first..first + count` of `tris` as packets of four.
-    pub fn pack(tris: &[Triangle], first: usize, count: usize, out: &mut Vec<TriPacket>) {
-        for start in (first..first + count).step_by(4) {
-            out.push(TriPacket::new(tris, start, (first + count - start).min(4)));
+    /// Slots `first..first + count` of `tris` as packets of `L`.
+    pub fn pack(tris: &[Triangle], first: usize, count: usize, out: &mut Vec<Self>) {
+        for start in (first..first + count).step_by(L) {
+            out.push(TriPacket::new(tris, start, (first + count - start).min(L)));
         }
     }
 
@@ -69,64 +69,88 @@ impl TriPacket {
 }
 
 /// The lane-parallel part of the watertight test.
-struct Lanes {
+struct Lanes<const L: usize> {
     /// Edge functions: the scaled barycentrics of vertices 1 and 2 (that
     /// of vertex 0 only enters `det` and `t_scaled`).
-    v: Vec4,
-    w: Vec4,
-    det: Vec4,
-    t_scaled: Vec4,
+    v: [f32; L],
+    w: [f32; L],
+    det: [f32; L],
+    t_scaled: [f32; L],
     /// Lanes that pass the test with the `t_max` given.
     hit: u32,
 }
 
-/// The watertight test on the four lanes, or `None` when a valid lane has
+/// The watertight test on the `L` lanes, or `None` when a valid lane has
 /// an edge function of exactly zero (the scalar test's `f64` case).
+///
+/// Written lane by lane over fixed-length arrays, with no branch in the
+/// loop, so that the compiler turns each line into one SIMD instruction
+/// over the lanes (4-wide SSE, or 8-wide AVX2 inside the AVX2 traversal);
+/// each lane's operations are the scalar test's, in its order.
 #[inline(always)]
-fn lanes(pk: &TriPacket, r: &PreparedRay, t_max: f32) -> Option<Lanes> {
+fn lanes<const L: usize>(pk: &TriPacket<L>, r: &PreparedRay, t_max: f32) -> Option<Lanes<L>> {
     let (kx, ky, kz) = (r.kx, r.ky, r.kz);
     let o = r.ray.origin;
+    let (ox, oy, oz) = (o[kx], o[ky], o[kz]);
     let s = r.shear;
-    // Vertex v relative to the ray origin, along axis a.
-    let rel = |v: usize, a: usize| pk.p[v][a] - Vec4::splat(o[a]);
-    let (sx, sy, sz) = (Vec4::splat(s.x), Vec4::splat(s.y), Vec4::splat(s.z));
-    let sheared = |v: usize| {
-        let (x, y, z) = (rel(v, kx), rel(v, ky), rel(v, kz));
-        (x - sx * z, y - sy * z, sz * z)
+    let (px, py, pz) = (&pk.p[0], &pk.p[1], &pk.p[2]);
+    let mut out = Lanes {
+        v: [0.0; L],
+        w: [0.0; L],
+        det: [0.0; L],
+        t_scaled: [0.0; L],
+        hit: 0,
     };
-    let (ax, ay, az) = sheared(0);
-    let (bx, by, bz) = sheared(1);
-    let (cx, cy, cz) = sheared(2);
-    let u = cx * by - cy * bx;
-    let v = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    let zero = Vec4::ZERO;
+    let mut zero = [false; L];
+    let mut miss = [false; L];
+    for i in 0..L {
+        // Vertex `p` relative to the ray origin, sheared.
+        let sheared = |p: &[[f32; L]; 3]| {
+            let (x, y, z) = (p[kx][i] - ox, p[ky][i] - oy, p[kz][i] - oz);
+            (x - s.x * z, y - s.y * z, s.z * z)
+        };
+        let (ax, ay, az) = sheared(px);
+        let (bx, by, bz) = sheared(py);
+        let (cx, cy, cz) = sheared(pz);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        zero[i] = (u == 0.0) | (v == 0.0) | (w == 0.0);
+        let negative = (u < 0.0) | (v < 0.0) | (w < 0.0);
+        let positive = (u > 0.0) | (v > 0.0) | (w > 0.0);
+        let det = u + v + w;
+        let t_scaled = u * az + v * bz + w * cz;
+        let limit = t_max * det;
+        let forward = det > 0.0;
+        let reject_forward = forward & ((t_scaled <= 0.0) | (t_scaled >= limit));
+        let reject_backward = !forward & ((t_scaled >= 0.0) | (t_scaled <= limit));
+        miss[i] = (negative & positive) | (det == 0.0) | reject_forward | reject_backward;
+        out.v[i] = v;
+        out.w[i] = w;
+        out.det[i] = det;
+        out.t_scaled[i] = t_scaled;
+    }
     let valid = pk.valid();
-    if (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).bitmask() & valid != 0 {
+    if bits(&zero) & valid != 0 {
         return None;
     }
-    let negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
-    let positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
-    let det = u + v + w;
-    let t_scaled = u * az + v * bz + w * cz;
-    let limit = Vec4::splat(t_max) * det;
-    let forward: BVec4A = det.cmpgt(zero);
-    let reject_forward = forward & (t_scaled.cmple(zero) | t_scaled.cmpge(limit));
-    let reject_backward = !forward & (t_scaled.cmpge(zero) | t_scaled.cmple(limit));
-    let miss = (negative & positive) | det.cmpeq(zero) | reject_forward | reject_backward;
-    Some(Lanes {
-        v,
-        w,
-        det,
-        t_scaled,
-        hit: !miss.bitmask() & valid,
-    })
+    out.hit = !bits(&miss) & valid;
+    Some(out)
+}
+
+/// Bit i set where lane i is true.
+#[inline(always)]
+fn bits<const L: usize>(lanes: &[bool; L]) -> u32 {
+    lanes
+        .iter()
+        .enumerate()
+        .fold(0, |m, (i, &b)| m | (u32::from(b) << i))
 }
 
 /// The scalar test's last step for one lane ([`Triangle::finish`]): its
 /// interval check against the current `t_max` and the division.
 #[inline(always)]
-fn accept(l: &Lanes, i: usize, t_max: f32) -> Option<PrimHit> {
+fn accept<const L: usize>(l: &Lanes<L>, i: usize, t_max: f32) -> Option<PrimHit> {
     Triangle::finish(l.v[i], l.w[i], l.det[i], l.t_scaled[i], t_max)
 }
 
@@ -134,8 +158,8 @@ fn accept(l: &Lanes, i: usize, t_max: f32) -> Option<PrimHit> {
 /// triangles in slot order would find it. `tris` and `indices` are the
 /// tree's leaf-ordered triangles and scene indices.
 #[inline(always)]
-pub fn closest_in_packets<S: Stats>(
-    packets: &[TriPacket],
+pub fn closest_in_packets<S: Stats, const L: usize>(
+    packets: &[TriPacket<L>],
     tris: &[Triangle],
     indices: &[u32],
     ray: &PreparedRay,
@@ -168,8 +192,8 @@ pub fn closest_in_packets<S: Stats>(
 /// Whether any triangle of the packets is hit in (0, t_max), stopping at
 /// the first packet with a hit, as [`any_of`] decides it.
 #[inline(always)]
-pub fn any_in_packets<S: Stats>(
-    packets: &[TriPacket],
+pub fn any_in_packets<S: Stats, const L: usize>(
+    packets: &[TriPacket<L>],
     tris: &[Triangle],
     ray: &PreparedRay,
     t_max: f32,
@@ -216,10 +240,16 @@ mod tests {
     /// partly filled packets.
     #[test]
     fn packets_match_the_scalar_loops_bit_for_bit() {
+        check::<4>();
+        check::<8>();
+    }
+
+    fn check<const L: usize>() {
         let mut rng = SplitMix64(19);
         let (mut hits, mut exact) = (0, 0);
         for case in 0..4000 {
-            let n = 1 + case % 7;
+            // One to two and a half packets.
+            let n = 1 + case % (2 * L + L / 2);
             let shared = v(&mut rng, 1.0);
             let tris: Vec<Triangle> = (0..n)
                 .map(|k| {
@@ -239,7 +269,7 @@ mod tests {
                 })
                 .collect();
             let indices: Vec<u32> = (0..n as u32).map(|k| 100 + k).collect();
-            let mut packets = Vec::new();
+            let mut packets = Vec::<TriPacket<L>>::new();
             TriPacket::pack(&tris, 0, n, &mut packets);
             let origin = v(&mut rng, 3.0);
             let target = match case % 4 {
@@ -274,17 +304,17 @@ mod tests {
             let bits = |b: Option<(u32, PrimHit)>| {
                 b.map(|(i, h)| (i, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
             };
-            assert_eq!(bits(best_s), bits(best_p), "case {case}");
-            assert_eq!(t_s.to_bits(), t_p.to_bits(), "case {case}");
-            assert_eq!(st_s, st_p, "case {case}");
+            assert_eq!(bits(best_s), bits(best_p), "{L} lanes, case {case}");
+            assert_eq!(t_s.to_bits(), t_p.to_bits(), "{L} lanes, case {case}");
+            assert_eq!(st_s, st_p, "{L} lanes, case {case}");
             hits += usize::from(best_s.is_some());
             exact += usize::from(packets.iter().any(|pk| lanes(pk, &ray, t_max).is_none()));
 
             let (mut a_s, mut a_p) = (Counters::default(), Counters::default());
             let any_s = any_of(tris.iter(), &ray, t_max, &mut a_s);
             let any_p = any_in_packets(&packets, &tris, &ray, t_max, &mut a_p);
-            assert_eq!(any_s, any_p, "case {case}");
-            assert_eq!(a_s, a_p, "case {case}");
+            assert_eq!(any_s, any_p, "{L} lanes, case {case}");
+            assert_eq!(a_s, a_p, "{L} lanes, case {case}");
         }
         assert!(hits > 1000, "only {hits} hits");
         assert!(exact > 10, "only {exact} cases took the f64 path");

@@ -1,8 +1,9 @@
 //! Wide box BVHs: the binary SAH box tree collapsed so that each node
 //! holds up to `W` children (4 for `bvh4`, 8 for `bvh8`), whose boxes are
 //! stored transposed (one `W`-lane row per plane) and tested together, as
-//! Embree's BVH4/BVH8 do; leaves of triangles are stored as packets of four
-//! and tested four at a time ([`super::packet`]).
+//! Embree's BVH4/BVH8 do; leaves of triangles are stored as packets of `W`
+//! (a `bvh8` leaf of up to eight triangles is one packet) and tested
+//! together ([`super::packet`]).
 //!
 //! Why: a binary tree makes a ray visit several times as many nodes as a
 //! wide one, and each visit is a dependent memory load. Incoherent rays
@@ -113,9 +114,9 @@ pub struct WideBvh<const W: usize> {
     nodes: Vec<WideNode<W>>,
     indices: Vec<u32>,
     leaf_prims: PrimArrays,
-    /// The leaves as packets of four triangles, when every primitive is a
+    /// The leaves as packets of `W` triangles, when every primitive is a
     /// triangle (empty otherwise: leaves are then slot runs).
-    packets: Vec<TriPacket>,
+    packets: Vec<TriPacket<W>>,
     /// Whether the node test may use AVX2 (detected at build time).
     avx2: bool,
     build_seconds: f64,
@@ -201,7 +202,7 @@ where
         slot..slot + count
     }
 
-    /// Whether the leaves are packets of four triangles.
+    /// Whether the leaves are packets of `W` triangles.
     pub fn has_packets(&self) -> bool {
         !self.packets.is_empty()
     }
@@ -246,7 +247,7 @@ where
             .filter(|_| self.has_packets())
         {
             let first = leaf.first as usize;
-            let packets = &self.packets[first..first + (leaf.count as usize).div_ceil(4)];
+            let packets = &self.packets[first..first + (leaf.count as usize).div_ceil(W)];
             if ANY_HIT {
                 return any_in_packets(packets, tris, ray, *t_max, stats);
             }

@@ -5,7 +5,8 @@
 //! (`analysis/embree-speed.toml`).
 //!
 //! One run loads a scene, builds the accelerators (each build timed:
-//! `warmup` untimed builds, then `repeats` timed ones, medians reported),
+//! `warmup` untimed builds, then `repeats` timed ones but at least
+//! [`BUILD_REPEATS`], each library's back to back, medians reported),
 //! makes the four ray sets of [`crate::workload`] (primary, shadow,
 //! diffuse, random) once, and then, for each set, times the accelerators
 //! alternately (`warmup` untimed passes each, then `repeats` timed passes
@@ -51,6 +52,11 @@ use rayon::prelude::*;
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+
+/// Fewest timed builds per accelerator: a build of these meshes takes a
+/// few milliseconds, where a handful of samples would leave the median at
+/// the mercy of one disturbance.
+pub const BUILD_REPEATS: u32 = 15;
 
 /// The `accel_speed` study.
 #[derive(Clone, Copy, Debug, Default)]
@@ -320,7 +326,10 @@ impl Study for AccelSpeed {
         let mut sides = Vec::new();
         let mut build_s = vec![Secs::default(); kinds_built.len()];
         for (i, &kind) in kinds_built.iter().enumerate() {
-            let build = Timings::measure(warmup, repeats, || {
+            // Each library's builds back to back, not in turn with the
+            // others': Embree's worker threads keep spinning for a while
+            // after a build, and would slow whatever build came next.
+            let build = Timings::measure(warmup, repeats.max(BUILD_REPEATS), || {
                 Accelerator::build(kind, &scene.prims, bounded.clone())
             });
             let accel = Accelerator::build(kind, &scene.prims, bounded.clone())
