@@ -63,7 +63,7 @@ impl<'a, const W: usize> Collapse<'a, W> {
             let n = &bin[b];
             let area = n.volume.surface_area();
             if n.is_leaf() {
-                best[b] = [o.intersection_cost * n.count as f32 * area; W];
+                best[b] = [o.intersection_cost * o.counted(n.count as usize) as f32 * area; W];
                 continue;
             }
             let (l, r) = (n.first as usize, n.first as usize + 1);

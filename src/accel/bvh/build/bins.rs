@@ -244,8 +244,8 @@ impl Bins {
         }
     }
 
-    /// The cheapest split along `axis` with `cost(A_L·N_L, A_R·N_R)`: the
-    /// first of the cheapest, as (cost, split bin) with the bins below the
+    /// The cheapest split along `axis` with `cost(A_L·N_L, A_R·N_R)`, each
+    /// side's N being `counted(primitives)`: the first of the cheapest, as (cost, split bin) with the bins below the
     /// split bin on the left; `None` when fewer than two bins are occupied.
     ///
     /// Only a boundary between two occupied bins divides the primitives
@@ -258,6 +258,7 @@ impl Bins {
     pub(super) fn best_split<V: BoundingVolume>(
         &self,
         axis: usize,
+        counted: impl Fn(usize) -> usize,
         cost: impl Fn(f32, f32) -> f32,
     ) -> Option<(f32, usize)> {
         let (boxes, count, occupied) = (&self.boxes[axis], &self.counts[axis], self.occupied[axis]);
@@ -269,7 +270,7 @@ impl Bins {
         for i in bits_down(occupied).take_while(|&i| i > first) {
             acc_box = acc_box.union(boxes[i]);
             acc_n += count[i] as usize;
-            right_cost[i] = side_cost::<V>(acc_box, acc_n);
+            right_cost[i] = side_cost::<V>(acc_box, counted(acc_n));
         }
         // Left to right: split between each occupied bin i and the next
         // one, j.
@@ -278,7 +279,7 @@ impl Bins {
         for (i, j) in bits_up(occupied).zip(bits_up(occupied).skip(1)) {
             acc_box = acc_box.union(boxes[i]);
             acc_n += count[i] as usize;
-            let c = cost(side_cost::<V>(acc_box, acc_n), right_cost[j]);
+            let c = cost(side_cost::<V>(acc_box, counted(acc_n)), right_cost[j]);
             if best.map_or(true, |(b, _)| c < b) {
                 best = Some((c, i + 1));
             }

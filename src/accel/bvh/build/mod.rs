@@ -276,7 +276,10 @@ impl<'a, V: BoundingVolume> TreeBuilder<'a, V> {
         if binner.axes.contains(&true) {
             self.bins.add(refs, &binner);
             for axis in (0..3).filter(|&a| binner.axes[a]) {
-                if let Some((c, split)) = self.bins.best_split::<V>(axis, cost) {
+                if let Some((c, split)) =
+                    self.bins
+                        .best_split::<V>(axis, |n| self.options.counted(n), cost)
+                {
                     if best.map_or(true, |(b, _, _)| c < b) {
                         best = Some((c, axis, split));
                     }
@@ -289,7 +292,7 @@ impl<'a, V: BoundingVolume> TreeBuilder<'a, V> {
             // All centroids coincide: nothing to bin.
             return (n > leaf_size).then_some(n / 2);
         };
-        if n <= leaf_size && c_isect * n as f32 <= cost {
+        if n <= leaf_size && c_isect * self.options.counted(n) as f32 <= cost {
             return None;
         }
         // Swap each primitive that goes left with the first one not known
@@ -429,16 +432,17 @@ mod tests {
     fn assert_parallel_equals_serial<V: BoundingVolume>(prims: &[Primitive], what: &str) {
         let ids: Vec<u32> = (0..prims.len() as u32).collect();
         for builder in Builder::ALL {
-            for fit in [Fit::Box, Fit::Points] {
+            for (fit, block) in [(Fit::Box, 1), (Fit::Points, 1), (Fit::Box, 8)] {
                 let options = BuildOptions {
                     builder,
                     fit,
+                    block,
                     ..BuildOptions::default()
                 };
                 let (serial_nodes, serial_indices) =
                     build_with::<V>(prims, &ids, &options, usize::MAX);
                 let (nodes, indices) = build_with::<V>(prims, &ids, &options, 64);
-                let case = format!("{what}, {} {builder:?} {fit:?}", V::NAME);
+                let case = format!("{what}, {} {builder:?} {fit:?} block {block}", V::NAME);
                 assert_eq!(indices, serial_indices, "{case}: index order");
                 assert_eq!(
                     format!("{nodes:?}"),
