@@ -290,7 +290,7 @@ impl Study for AccelSpeed {
         });
         Ok(Config {
             scene: scene_file(base_dir, &p.scene)?,
-            accel: or_default(p.accel, "accel", "bvh4")?,
+            accel: or_default(p.accel, "accel", "bvh")?,
             reference: or_default(p.reference, "reference", "embree:high+robust")?,
             peer: p.peer,
             width: res.width,
