@@ -5,6 +5,7 @@
 
 use crate::math::{luminance, Color, Real, Vec3, V3};
 use crate::shading::point_light_arriving;
+use crate::shape::smooth::{triangle_normal, triangle_point};
 use crate::shape::{Primitive, Shape, ShapeR, Triangle};
 use glam::Vec2;
 
@@ -73,14 +74,23 @@ pub struct Emitter {
 /// The geometry of an emitter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum EmitterShape {
-    Triangle(Triangle),
-    Sphere { centre: Vec3, radius: f32 },
+    /// A triangle and its unit normal, computed once
+    /// ([`triangle_normal`]): light sampling would otherwise recompute it
+    /// for every sample.
+    Triangle(Triangle, Vec3),
+    Sphere {
+        centre: Vec3,
+        radius: f32,
+    },
 }
 
 impl EmitterShape {
     fn of(shape: &Shape) -> Option<Self> {
         match shape {
-            Shape::Triangle(t) => Some(Self::Triangle(*t)),
+            Shape::Triangle(t) => Some(Self::Triangle(
+                *t,
+                triangle_normal(t.p.map(V3::from)).into(),
+            )),
             Shape::Sphere(s) => Some(Self::Sphere {
                 centre: s.centre,
                 radius: s.radius,
@@ -92,7 +102,7 @@ impl EmitterShape {
     /// The same geometry over [`Real`] (the formulas live there).
     fn real(&self) -> ShapeR<f32> {
         match *self {
-            Self::Triangle(t) => ShapeR::Triangle {
+            Self::Triangle(t, _) => ShapeR::Triangle {
                 p: t.p.map(V3::from),
             },
             Self::Sphere { centre, radius } => ShapeR::Sphere {
@@ -110,6 +120,9 @@ impl EmitterShape {
     /// A uniformly distributed point on the surface and the unit normal
     /// there, from two uniform numbers in [0, 1).
     pub fn sample(&self, u: Vec2) -> (Vec3, Vec3) {
+        if let Self::Triangle(t, normal) = self {
+            return (triangle_point(t.p.map(V3::from), u).into(), *normal);
+        }
         let (p, n) = self.real().sample_point(u);
         (p.into(), n.into())
     }

@@ -54,10 +54,13 @@ impl PreparedRay {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        let shear = Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+        // Two 4-lane divisions in place of six scalar ones: each lane is
+        // the same correctly rounded quotient, so the bits do not change.
+        let shear = (glam::Vec4::new(d[kx], d[ky], 1.0, 1.0) / d[kz]).truncate();
+        let inv_dir = glam::Vec4::new(d.x, d.y, d.z, 1.0).recip().truncate();
         Self {
             ray,
-            inv_dir: d.recip(),
+            inv_dir,
             kx,
             ky,
             kz,

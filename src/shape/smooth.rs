@@ -81,16 +81,7 @@ impl<R: Real> ShapeR<R> {
     /// shape for fixed `u` (a reparameterisation of the uniform density).
     pub fn sample_point(&self, u: Vec2) -> (V3<R>, V3<R>) {
         match *self {
-            Self::Triangle { p: [a, b, c] } => {
-                let (b1, b2) = uniform_triangle(u);
-                let n = (b - a).cross(c - a);
-                let n = if n.value().length() > 0.0 {
-                    n.normalize()
-                } else {
-                    V3::zero()
-                };
-                (a + (b - a) * R::from_f32(b1) + (c - a) * R::from_f32(b2), n)
-            }
+            Self::Triangle { p } => (triangle_point(p, u), triangle_normal(p)),
             Self::Sphere { centre, radius } => {
                 let n = V3::from_vec3(uniform_sphere(u));
                 (centre + n * radius, n)
@@ -248,5 +239,25 @@ impl<R: Real> HitR<R> {
     #[inline(always)]
     pub fn point_value(&self) -> Vec3 {
         self.point.value()
+    }
+}
+
+/// The point of triangle `p` that two uniform numbers `u` place, uniformly
+/// in area ([`uniform_triangle`]'s barycentrics).
+#[inline]
+pub fn triangle_point<R: Real>([a, b, c]: [V3<R>; 3], u: Vec2) -> V3<R> {
+    let (b1, b2) = uniform_triangle(u);
+    a + (b - a) * R::from_f32(b1) + (c - a) * R::from_f32(b2)
+}
+
+/// The unit normal of triangle `p` (winding a → b → c), zero for a
+/// degenerate one.
+#[inline]
+pub fn triangle_normal<R: Real>([a, b, c]: [V3<R>; 3]) -> V3<R> {
+    let n = (b - a).cross(c - a);
+    if n.value().length() > 0.0 {
+        n.normalize()
+    } else {
+        V3::zero()
     }
 }
