@@ -245,8 +245,9 @@ impl Bins {
     }
 
     /// The cheapest split along `axis` with `cost(A_L·N_L, A_R·N_R)`, each
-    /// side's N being `counted(primitives)`: the first of the cheapest, as (cost, split bin) with the bins below the
-    /// split bin on the left; `None` when fewer than two bins are occupied.
+    /// side's N being `counted(its primitives)`: the first of the cheapest,
+    /// as (cost, split bin) with the bins below the split bin on the left;
+    /// `None` when fewer than two bins are occupied.
     ///
     /// Only a boundary between two occupied bins divides the primitives
     /// differently from its neighbours (one beside an empty bin divides
