@@ -102,7 +102,7 @@ impl<R: Real> ShapeR<R> {
                 .mul_vec(to_unit.mul_vec(p - centre))
                 .normalize(),
             Self::Plane { normal, .. } => normal,
-            Self::Triangle { p: [a, b, c] } => (b - a).cross(c - a).normalize(),
+            Self::Triangle { p } => triangle_normal(p),
         }
     }
 
@@ -250,13 +250,17 @@ pub fn triangle_point<R: Real>([a, b, c]: [V3<R>; 3], u: Vec2) -> V3<R> {
     a + (b - a) * R::from_f32(b1) + (c - a) * R::from_f32(b2)
 }
 
-/// The unit normal of triangle `p` (winding a → b → c), zero for a
-/// degenerate one.
+/// The unit geometric normal (b − a) × (c − a) of triangle `p`
+/// (counter-clockwise vertices face the viewer), zero where the cross
+/// product's length or its reciprocal is not a positive finite number (a
+/// degenerate triangle): glam's `normalize_or_zero`, over [`Real`]. Every
+/// triangle normal in raylab is this one.
 #[inline]
 pub fn triangle_normal<R: Real>([a, b, c]: [V3<R>; 3]) -> V3<R> {
     let n = (b - a).cross(c - a);
-    if n.value().length() > 0.0 {
-        n.normalize()
+    let rcp = R::one() / n.length();
+    if rcp.value().is_finite() && rcp.value() > 0.0 {
+        n * rcp
     } else {
         V3::zero()
     }

@@ -11,8 +11,9 @@
 //! edge function rounds to exactly zero, it is recomputed in double precision
 //! (the paper's fallback) so the sign decision is exact.
 
+use super::smooth::triangle_normal;
 use super::{Aabb, PreparedRay, PrimHit};
-use crate::math::Vec3;
+use crate::math::{Vec3, V3};
 
 /// Marks a triangle that does not belong to a mesh (no shading normals).
 pub const NO_MESH: u32 = u32::MAX;
@@ -110,11 +111,10 @@ impl Triangle {
     // ANCHOR_END: watertight
 
     /// Unit geometric normal (p1 − p0) × (p2 − p0): counter-clockwise
-    /// vertices face the viewer.
+    /// vertices face the viewer ([`triangle_normal`]; zero if degenerate).
+    #[inline]
     pub fn normal(&self) -> Vec3 {
-        (self.p[1] - self.p[0])
-            .cross(self.p[2] - self.p[0])
-            .normalize_or_zero()
+        triangle_normal(self.p.map(V3::from)).into()
     }
 
     pub fn bounds(&self) -> Aabb {
