@@ -1,8 +1,12 @@
 //! Rendering throughput, printed as ratios measured in one run: counters on
 //! vs off (target: `Counters` costs at most 5 % over `NoStats` on Whitted
 //! renders of the S1 scenes and the camel) and 1 vs 2 threads (target: at
-//! least 1.9× on renders of 0.2 s or more), each row marked against them. A small harness rather than criterion: each configuration is
-//! rendered once to warm up, then `REPEATS` times; medians are compared.
+//! least 1.9× on renders of 0.2 s or more), each row marked against them.
+//! A small harness rather than criterion: the three configurations
+//! (`NoStats` and `Counters` on 1 thread, `NoStats` on 2) are rendered in
+//! turn, one warm-up round and then `REPEATS` rounds, and each ratio is the
+//! median of the rounds' ratios, so that a machine whose speed drifts
+//! during the run (a shared VM) does not pass its drift off as overhead.
 //!
 //! Run with `make bench` (or `cargo bench --bench render`, and
 //! `cargo bench --bench render -- camel` for the scenes whose name contains
@@ -15,19 +19,43 @@ use raylab::stats::{Counters, NoStats, RayCounts, RenderStats};
 use std::path::Path;
 use std::time::Instant;
 
-const REPEATS: usize = 7;
+const REPEATS: usize = 9;
 
-fn median_seconds<S: RenderStats>(scene: &Scene, threads: usize) -> f64 {
-    render::<_, S>(scene, &Whitted, Some(threads));
-    let mut times: Vec<f64> = (0..REPEATS)
-        .map(|_| {
-            let t = Instant::now();
-            std::hint::black_box(render::<_, S>(scene, &Whitted, Some(threads)));
-            t.elapsed().as_secs_f64()
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[REPEATS / 2]
+/// Seconds of one render of `scene` on `threads` threads, counting into `S`.
+fn seconds<S: RenderStats>(scene: &Scene, threads: usize) -> f64 {
+    let t = Instant::now();
+    std::hint::black_box(render::<_, S>(scene, &Whitted, Some(threads)));
+    t.elapsed().as_secs_f64()
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The three configurations timed in turn, `REPEATS` rounds after one
+/// warm-up round: `NoStats` on 1 thread, `Counters` on 1 thread, `NoStats`
+/// on 2 threads. A drift of the machine's speed over the run falls on all
+/// three alike, and each ratio is the median of the rounds' own ratios.
+/// Returns (median NoStats seconds, median 2-thread seconds, counters'
+/// overhead, speed-up).
+fn alternating(scene: &Scene) -> (f64, f64, f64, f64) {
+    let round = || {
+        (
+            seconds::<NoStats>(scene, 1),
+            seconds::<Counters>(scene, 1),
+            seconds::<NoStats>(scene, 2),
+        )
+    };
+    round();
+    let rounds: Vec<(f64, f64, f64)> = (0..REPEATS).map(|_| round()).collect();
+    let of = |f: &dyn Fn(&(f64, f64, f64)) -> f64| median(rounds.iter().map(f).collect());
+    (
+        of(&|r| r.0),
+        of(&|r| r.2),
+        of(&|r| r.1 / r.0 - 1.0),
+        of(&|r| r.0 / r.2),
+    )
 }
 
 fn main() {
@@ -80,10 +108,7 @@ fn main() {
         };
         let scene = load_scene(Path::new(path), &o).expect("bench scene (run make deps)");
         let (_, RayCounts(c)) = render::<_, RayCounts>(&scene, &Whitted, Some(1));
-        let off = median_seconds::<NoStats>(&scene, 1);
-        let on = median_seconds::<Counters>(&scene, 1);
-        let two = median_seconds::<NoStats>(&scene, 2);
-        let (overhead, speed_up) = (on / off - 1.0, off / two);
+        let (off, two, overhead, speed_up) = alternating(&scene);
         let counters = if overhead <= 0.05 { "ok" } else { "MISSED" };
         // Thread scaling is a target only where a render is long enough
         // for the pool's start-up and the last tiles not to dominate.
