@@ -186,7 +186,8 @@ impl Accelerator {
             Accelerator::BvhAabb(b, _) => Some(b.stats(prims)),
             Accelerator::BvhSphere(b, _) => Some(b.stats(prims)),
             Accelerator::BvhEllipsoid(b, _) => Some(b.stats(prims)),
-            Accelerator::Bvh4(_) | Accelerator::Bvh8(_) => None,
+            Accelerator::Bvh4(b) => Some(b.stats(prims)),
+            Accelerator::Bvh8(b) => Some(b.stats(prims)),
             #[cfg(feature = "embree")]
             Accelerator::Embree(_) => None,
             #[cfg(feature = "obvhs")]

@@ -273,10 +273,7 @@ impl<V: BoundingVolume> Bvh<V> {
             return s;
         };
         let root_area = root.volume.surface_area();
-        let mut area_ratio_sum = 0.0f64;
-        let mut volume_ratio_sum = 0.0f64;
-        let (mut node_volume_sum, mut content_volume_sum) = (0.0f64, 0.0f64);
-        let mut solid_nodes = 0usize;
+        let mut waste = Waste::default();
         let mut sah = 0.0f64;
         // Post-order over (node, depth), computing each node's content box
         // from its children's; `boxes` is indexed by node.
@@ -291,48 +288,25 @@ impl<V: BoundingVolume> Bvh<V> {
                 continue;
             }
             s.max_depth = s.max_depth.max(depth);
-            let weight = if root_area > 0.0 {
-                (n.volume.surface_area() / root_area) as f64
-            } else {
-                1.0
-            };
+            let weight = area_weight(n.volume.surface_area(), root_area);
             boxes[i] = if n.is_leaf() {
                 s.leaves += 1;
                 s.max_leaf_prims = s.max_leaf_prims.max(n.count as usize);
-                sah += weight * n.count as f64 * self.options.intersection_cost as f64;
-                self.indices[n.first as usize..(n.first + n.count) as usize]
-                    .iter()
-                    .filter_map(|&id| prims[id as usize].bounds())
-                    .fold(Aabb::EMPTY, Aabb::union)
+                let counted = self.options.counted(n.count as usize) as f64;
+                sah += weight * counted * self.options.intersection_cost as f64;
+                content_box(
+                    prims,
+                    &self.indices[n.first as usize..(n.first + n.count) as usize],
+                )
             } else {
                 sah += weight * self.options.traversal_cost as f64;
                 boxes[n.first as usize].union(boxes[n.first as usize + 1])
             };
-            let content = boxes[i];
-            let (a, v) = (content.surface_area(), content.volume());
-            if a > 0.0 {
-                area_ratio_sum += (n.volume.surface_area() / a) as f64;
-            }
-            if v > 0.0 {
-                volume_ratio_sum += (n.volume.volume() / v) as f64;
-                node_volume_sum += n.volume.volume() as f64;
-                content_volume_sum += v as f64;
-                solid_nodes += 1;
-            }
+            waste.add(n.volume.surface_area(), n.volume.volume(), &boxes[i]);
         }
         s.mean_leaf_prims = self.indices.len() as f64 / s.leaves as f64;
         s.sah_cost = sah;
-        s.mean_area_ratio = area_ratio_sum / s.nodes as f64;
-        s.mean_volume_ratio = if solid_nodes > 0 {
-            volume_ratio_sum / solid_nodes as f64
-        } else {
-            f64::NAN
-        };
-        s.total_volume_ratio = if content_volume_sum > 0.0 {
-            node_volume_sum / content_volume_sum
-        } else {
-            f64::NAN
-        };
+        waste.finish(&mut s);
         s
     }
 
@@ -383,6 +357,67 @@ impl<V: BoundingVolume> Accel for Bvh<V> {
         stats: &mut S,
     ) -> bool {
         self.traverse::<S, true>(ray, t_max, &mut None, stats)
+    }
+}
+
+/// A node's share of the rays under the SAH: its surface area over the
+/// root's (1 when the root has none).
+pub(crate) fn area_weight(area: f32, root_area: f32) -> f64 {
+    if root_area > 0.0 {
+        f64::from(area / root_area)
+    } else {
+        1.0
+    }
+}
+
+/// The box of the bounded primitives `ids` (a leaf's contents).
+pub(crate) fn content_box(prims: &[Primitive], ids: &[u32]) -> Aabb {
+    ids.iter()
+        .filter_map(|&id| prims[id as usize].bounds())
+        .fold(Aabb::EMPTY, Aabb::union)
+}
+
+/// The wasted-space sums behind [`BvhStats`]' ratios, node by node.
+#[derive(Default)]
+pub(crate) struct Waste {
+    nodes: usize,
+    area_ratio_sum: f64,
+    volume_ratio_sum: f64,
+    node_volume_sum: f64,
+    content_volume_sum: f64,
+    solid_nodes: usize,
+}
+
+impl Waste {
+    /// A node whose volume has surface area `area` and volume `volume`,
+    /// and whose contents fill `content`.
+    pub(crate) fn add(&mut self, area: f32, volume: f32, content: &Aabb) {
+        self.nodes += 1;
+        let (a, v) = (content.surface_area(), content.volume());
+        if a > 0.0 {
+            self.area_ratio_sum += f64::from(area / a);
+        }
+        if v > 0.0 {
+            self.volume_ratio_sum += f64::from(volume / v);
+            self.node_volume_sum += f64::from(volume);
+            self.content_volume_sum += f64::from(v);
+            self.solid_nodes += 1;
+        }
+    }
+
+    /// The three ratios of [`BvhStats`].
+    pub(crate) fn finish(self, s: &mut BvhStats) {
+        s.mean_area_ratio = self.area_ratio_sum / self.nodes as f64;
+        s.mean_volume_ratio = if self.solid_nodes > 0 {
+            self.volume_ratio_sum / self.solid_nodes as f64
+        } else {
+            f64::NAN
+        };
+        s.total_volume_ratio = if self.content_volume_sum > 0.0 {
+            self.node_volume_sum / self.content_volume_sum
+        } else {
+            f64::NAN
+        };
     }
 }
 

@@ -39,9 +39,9 @@ use super::collapse::{Collapse, Ref};
 use super::packet::{any_in_packets, closest_in_packets, TriPacket};
 use super::traverse::{test_leaf, Pending};
 use super::volume::BoundingVolume;
-use super::{BuildOptions, Bvh, MAX_DEPTH};
+use super::{area_weight, content_box, BuildOptions, Bvh, BvhStats, Waste, MAX_DEPTH};
 use crate::accel::Accel;
-use crate::math::{slab4, slab8, Aabb, Planes8};
+use crate::math::{slab4, slab8, Aabb, Planes8, Vec3};
 use crate::shape::{PreparedRay, PrimArrays, PrimHit, Primitive};
 use crate::stats::Stats;
 use glam::Vec4;
@@ -60,6 +60,16 @@ pub struct WideNode<const W: usize> {
     pub max: [[f32; W]; 3],
     pub first: [u32; W],
     pub count: [u32; W],
+}
+
+impl<const W: usize> WideNode<W> {
+    /// Child `i`'s box.
+    pub fn child_box(&self, i: usize) -> Aabb {
+        Aabb {
+            min: Vec3::new(self.min[0][i], self.min[1][i], self.min[2][i]),
+            max: Vec3::new(self.max[0][i], self.max[1][i], self.max[2][i]),
+        }
+    }
 }
 
 /// The 4-wide node.
@@ -119,6 +129,9 @@ pub struct WideBvh<const W: usize> {
     packets: Vec<TriPacket<W>>,
     /// Whether the node test may use AVX2 (detected at build time).
     avx2: bool,
+    /// The options the binary tree was built with (their SAH constants
+    /// weigh [`WideBvh::stats`]' cost).
+    options: BuildOptions,
     build_seconds: f64,
 }
 
@@ -169,6 +182,7 @@ where
             leaf_prims,
             packets,
             avx2: W == 8 && has_avx2(),
+            options,
             build_seconds: start.elapsed().as_secs_f64(),
         }
     }
@@ -229,6 +243,40 @@ where
             + std::mem::size_of_val(self.indices.as_slice())
             + std::mem::size_of_val(self.packets.as_slice())
             + self.leaf_prims.memory_bytes()
+    }
+
+    /// Shape and cost figures of the tree, under the binary tree's
+    /// definitions ([`BvhStats`]) with a wide node in place of a binary
+    /// one: nodes are wide nodes plus leaves, depth counts wide levels, the
+    /// SAH cost charges C_trav per wide node and C_isect per counted
+    /// primitive of a leaf (the collapse's model), each weighted by the area
+    /// of the box its parent stores for it over the root box's, and the
+    /// wasted-space ratios compare each such box with the box of its
+    /// contents. Walks the tree; not for hot paths.
+    pub fn stats(&self, prims: &[Primitive]) -> BvhStats {
+        let mut s = BvhStats {
+            memory_bytes: self.memory_bytes(),
+            build_seconds: self.build_seconds,
+            ..BvhStats::default()
+        };
+        let Some(root_box) = self.root_box else {
+            return s;
+        };
+        let mut walk = StatsWalk {
+            tree: self,
+            prims,
+            root_area: root_box.surface_area(),
+            stats: &mut s,
+            waste: Waste::default(),
+            sah: 0.0,
+            prims_in_leaves: 0,
+        };
+        walk.visit(self.root, root_box, 0);
+        let (waste, sah, in_leaves) = (walk.waste, walk.sah, walk.prims_in_leaves);
+        s.sah_cost = sah;
+        s.mean_leaf_prims = in_leaves as f64 / s.leaves as f64;
+        waste.finish(&mut s);
+        s
     }
 
     /// Test one leaf; see [`test_leaf`] for the contract.
@@ -356,6 +404,60 @@ where
     }
 }
 
+/// The recursion behind [`WideBvh::stats`].
+struct StatsWalk<'a, const W: usize> {
+    tree: &'a WideBvh<W>,
+    prims: &'a [Primitive],
+    root_area: f32,
+    stats: &'a mut BvhStats,
+    waste: Waste,
+    sah: f64,
+    prims_in_leaves: usize,
+}
+
+impl<const W: usize> StatsWalk<'_, W>
+where
+    WideNode<W>: ChildTest<W>,
+{
+    /// Tally the node or leaf `r`, whose parent stores `bounds` for it, at
+    /// wide level `depth`, and return the box of its contents. Recursion
+    /// is at most the tree's depth (below `MAX_DEPTH`).
+    fn visit(&mut self, r: Ref, bounds: Aabb, depth: usize) -> Aabb {
+        let (t, o) = (self.tree, &self.tree.options);
+        self.stats.nodes += 1;
+        self.stats.max_depth = self.stats.max_depth.max(depth);
+        let weight = area_weight(bounds.surface_area(), self.root_area);
+        let content = if r.count > 0 {
+            let n = r.count as usize;
+            self.stats.leaves += 1;
+            self.stats.max_leaf_prims = self.stats.max_leaf_prims.max(n);
+            self.prims_in_leaves += n;
+            self.sah += weight * o.counted(n) as f64 * f64::from(o.intersection_cost);
+            let slots = t.leaf_slots(r.first, r.count);
+            content_box(
+                self.prims,
+                &t.indices[slots.start as usize..slots.end as usize],
+            )
+        } else {
+            self.sah += weight * f64::from(o.traversal_cost);
+            let n = t.nodes[r.first as usize];
+            (0..W)
+                .filter(|&i| n.count[i] != u32::MAX)
+                .map(|i| {
+                    let child = Ref {
+                        first: n.first[i],
+                        count: n.count[i],
+                    };
+                    self.visit(child, n.child_box(i), depth + 1)
+                })
+                .fold(Aabb::EMPTY, Aabb::union)
+        };
+        self.waste
+            .add(bounds.surface_area(), bounds.volume(), &content);
+        content
+    }
+}
+
 /// The traversal compiled for AVX2, so that the 8-wide node test inlines.
 ///
 /// # Safety
@@ -464,10 +566,7 @@ mod tests {
             assert!((2..=W).contains(&children));
             assert!(n.count[children..].iter().all(|&c| c == u32::MAX));
             for i in 0..children {
-                let cb = Aabb {
-                    min: Vec3::new(n.min[0][i], n.min[1][i], n.min[2][i]),
-                    max: Vec3::new(n.max[0][i], n.max[1][i], n.max[2][i]),
-                };
+                let cb = n.child_box(i);
                 assert!(cb.min.cmpge(b.min).all() && cb.max.cmple(b.max).all());
                 let child = Ref {
                     first: n.first[i],
@@ -478,6 +577,14 @@ mod tests {
         }
         assert!(seen.iter().all(|&k| k == 1));
         assert_eq!(wide_nodes, t.nodes.len());
+        // The shape figures count the same tree; every stored box is its
+        // contents' box, so no space is wasted.
+        let st = t.stats(&prims);
+        assert_eq!((st.nodes, st.leaves), (wide_nodes + leaves, leaves));
+        assert!(st.max_leaf_prims <= 8 && st.max_depth >= 1);
+        assert_eq!(st.mean_leaf_prims * leaves as f64, prims.len() as f64);
+        assert_eq!((st.mean_area_ratio, st.total_volume_ratio), (1.0, 1.0));
+        assert!(st.sah_cost > 0.0 && st.memory_bytes == t.memory_bytes());
         // L leaves need L − 1 binary interior nodes; collapsed to up to
         // W children a node, at least (L − 1)/(W − 1). A collapse that
         // opened nothing would keep L − 1.
