@@ -84,6 +84,21 @@ pub enum EmitterShape {
     },
 }
 
+impl Emitter {
+    /// A sphere holding the emitter: (centre, radius); for a triangle its
+    /// centroid and the farthest corner's distance.
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        match self.shape {
+            EmitterShape::Triangle(t, _) => {
+                let c = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
+                let r = t.p.iter().map(|&p| p.distance(c)).fold(0.0, f32::max);
+                (c, r)
+            }
+            EmitterShape::Sphere { centre, radius } => (centre, radius),
+        }
+    }
+}
+
 impl EmitterShape {
     fn of(shape: &Shape) -> Option<Self> {
         match shape {

@@ -419,18 +419,50 @@ fn the_boundary_term_does_not_depend_on_the_thread_count() {
 /// The Cornell box: moving a block moves its soft shadow inside every
 /// shading point's integral over the area light and, with bounces, the
 /// indirect light every vertex sees past its silhouettes; moving the camera
-/// moves every vertex. With the vertex terms the image mean's derivative
-/// agrees with a reference of four independent central differences at 16×
-/// the samples (a z-test with both standard errors); without them, the
-/// first parameter is off by many. `light_y` is the height of the light
-/// quad (the box's own hangs at 1.998, 2 mm below the ceiling, which makes
+/// moves every vertex. `light_y` is the height of the light quad (the
+/// box's own hangs at 1.998, 2 mm below the ceiling, which makes
 /// derivatives that move path vertices heavy tailed under `path:K`: see
-/// `diff::boundary::vertex`).
+/// `diff::boundary::vertex`). The checks are [`cornell_checks`]'.
 fn cornell_vertex_terms(integrator: &str, names: &[&str], light_y: &str) {
-    let cornell = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/cornell-box.toml");
-    let text = std::fs::read_to_string(&cornell).unwrap();
+    let text = cornell_text().replace("1.998", light_y);
+    cornell_checks(integrator, names, &text);
+}
+
+/// The Cornell box's scene file, whose light quad hangs at y = 1.998.
+fn cornell_text() -> String {
+    let text = std::fs::read_to_string(cornell_path()).unwrap();
     assert_eq!(text.matches("1.998").count(), 6, "the light quad's corners");
-    let text = text.replace("1.998", light_y);
+    text
+}
+
+fn cornell_path() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/cornell-box.toml")
+}
+
+/// Seeds of the reference's central differences.
+const REFERENCE_SEEDS: u64 = 12;
+
+/// The issue's per-pixel check on the Cornell box's variant `text`, 16×16
+/// pixels. The derivative renders take 128 random samples per pixel. The
+/// reference is the mean of [`REFERENCE_SEEDS`] central differences, each
+/// two renders of 32×32 jittered samples per pixel sharing their seed
+/// (common random numbers), with a step of 0.004: that moves the blocks'
+/// edges by about 0.03 pixel, so the difference's window over an edge
+/// crossing a pixel border biases few pixels (a step of 0.02, 0.15 pixel,
+/// put whole columns of pixels beside a moving silhouette 5–10 SE off);
+/// jittered samples keep the few crossings of so short a step from
+/// making the reference heavy tailed (random ones did, at the light's
+/// edges). Its standard error per pixel comes from the spread over the
+/// seeds (11 degrees of freedom). A pixel passes when
+/// |AD − reference| ≤ 4·√(SE_AD² + SE_ref²) + 10⁻³ of the reference's mean
+/// |value| (the issue's 4 SE, with the reference's own noise). With `full`
+/// ≥ 99 % of pixels pass, and the image mean agrees with the reference's
+/// (|z| < 4); with `interior` the first parameter fails the per-pixel
+/// check (at most 95 % of pixels pass; measured 0.90–0.93). Its image
+/// mean is printed, not checked: at this step the reference's image mean
+/// is too noisy to tell it apart everywhere.
+fn cornell_checks(integrator: &str, names: &[&str], text: &str) {
+    let cornell = cornell_path();
     let overrides = |sampler: &str, seed: u64| Overrides {
         width: Some(16),
         height: Some(16),
@@ -438,43 +470,77 @@ fn cornell_vertex_terms(integrator: &str, names: &[&str], light_y: &str) {
         seed: Some(seed),
         ..Overrides::default()
     };
-    let scene = parse_scene(&text, &cornell, &overrides("random:64", 3)).unwrap();
-    let file: SceneFile = toml::from_str(&text).unwrap();
+    let scene = parse_scene(text, &cornell, &overrides("random:128", 3)).unwrap();
+    let file: SceneFile = toml::from_str(text).unwrap();
     let p = params(names, &file);
     let integrator = IntegratorKind::parse(integrator).unwrap();
     let run = |v| diff::render_gradients(&scene, &file, &cornell, &p, integrator, v, None).unwrap();
     let (full, interior) = (run(Visibility::Full), run(Visibility::Interior));
     assert!(full.boundary.stats.landed > 0);
     for (i, param) in p.iter().enumerate() {
-        let fds: Vec<f64> = (0..4)
+        let steps: Vec<Vec<f64>> = (0..REFERENCE_SEEDS)
             .map(|k| {
-                diff::difference_step(
+                let step = diff::difference_step(
                     &cornell,
-                    &text,
+                    text,
                     &file,
-                    &overrides("random:1024", 100 + k),
+                    &overrides("jitter:32", 100 + k),
                     param,
-                    0.02,
+                    0.004,
                     integrator,
                     None,
                 )
-                .unwrap()
-                .image_mean
+                .unwrap();
+                step.per_pixel
+                    .chunks_exact(3)
+                    .map(|c| f64::from(c[0] + c[1] + c[2]) / 3.0)
+                    .collect()
             })
             .collect();
-        let reference = fds.iter().sum::<f64>() / 4.0;
-        let ref_se = (fds.iter().map(|f| (f - reference).powi(2)).sum::<f64>() / 12.0).sqrt();
-        let (m, se) = full.image_mean(i);
-        let z = (m - reference) / (se * se + ref_se * ref_se).sqrt();
-        let (mi, sei) = interior.image_mean(i);
-        let zi = (mi - reference) / (sei * sei + ref_se * ref_se).sqrt();
+        let (m, pixels) = (REFERENCE_SEEDS as f64, steps[0].len());
+        let reference: Vec<f64> = (0..pixels)
+            .map(|j| steps.iter().map(|s| s[j]).sum::<f64>() / m)
+            .collect();
+        let spread = |values: &mut dyn Iterator<Item = f64>, mean: f64| {
+            (values.map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0) / m).sqrt()
+        };
+        let reference_se: Vec<f64> = (0..pixels)
+            .map(|j| spread(&mut steps.iter().map(|s| s[j]), reference[j]))
+            .collect();
+        let scale = reference.iter().map(|r| r.abs()).sum::<f64>() / pixels as f64;
+        let share = |g: &diff::Gradients| {
+            let (ad, se) = (g.grey(i), g.grey_se(i));
+            let good = (0..pixels)
+                .filter(|&j| {
+                    let tol = 4.0 * (f64::from(se[j]).powi(2) + reference_se[j].powi(2)).sqrt();
+                    (f64::from(ad[j]) - reference[j]).abs() <= tol + 1e-3 * scale
+                })
+                .count();
+            good as f64 / pixels as f64
+        };
+        let image_means: Vec<f64> = steps
+            .iter()
+            .map(|s| s.iter().sum::<f64>() / pixels as f64)
+            .collect();
+        let mean_ref = image_means.iter().sum::<f64>() / m;
+        let mean_se = spread(&mut image_means.iter().copied(), mean_ref);
+        let z = |g: &diff::Gradients| {
+            let (mean, se) = g.image_mean(i);
+            (mean - mean_ref) / (se * se + mean_se * mean_se).sqrt()
+        };
+        let (sf, si) = (share(&full), share(&interior));
+        let (zf, zi) = (z(&full), z(&interior));
         eprintln!(
-            "{}: full {m:.4e} ± {se:.1e}, interior {mi:.4e}, reference {reference:.4e} ± {ref_se:.1e}: z = {z:.2} (interior {zi:.1})",
-            param.name
+            "{}: pixels within 4 SE: full {sf:.4}, interior {si:.4}; image mean {:.4e} \
+             (interior {:.4e}), reference {mean_ref:.4e} ± {mean_se:.1e}: z = {zf:.2} (interior {zi:.1})",
+            param.name,
+            full.image_mean(i).0,
+            interior.image_mean(i).0,
         );
-        assert!(z.abs() < 4.0, "{}: z = {z}", param.name);
+        assert!(sf >= 0.99, "{}: full, share {sf}", param.name);
+        assert!(zf.abs() < 4.0, "{}: full, z = {zf}", param.name);
         if i == 0 {
-            assert!(zi.abs() > 4.0, "{}: interior z = {zi}", param.name);
+            assert!(si < 0.95, "{}: interior, share {si}", param.name);
         }
     }
 }
@@ -498,5 +564,34 @@ fn path_tracing_secondary_visibility_is_in_the_full_derivative() {
             "camera.eye[1]",
         ],
         "1.85",
+    );
+}
+
+/// Moving the area light itself: light sampling's points move with it, so
+/// the soft shadows' curves count by their motion relative to the
+/// emitter's material points (`diff::boundary::area`). The light is the
+/// box's quad as one mesh (`data/meshes/quad.obj`) lowered to y = 1.85
+/// (the heavy tails of the light at 1.998, `cornell_vertex_terms`), moved
+/// down and sideways; and, on the box's own light (lowered likewise), one
+/// corner of one of its two triangles, which deforms the emitter (beside
+/// the tall block, whose interior derivative fails the check).
+#[test]
+fn a_moving_area_light_is_in_the_full_derivative() {
+    let text = cornell_text();
+    let start = text.find("# The light: a 0.5").unwrap();
+    let end = text[start..].find("[[mesh]]").unwrap() + start;
+    let quad = "[[mesh]]\nfile = \"../meshes/quad.obj\"\nmaterial = \"light\"\n\
+                scale = 0.5\ntranslate = [0.0, 1.85, 0.0]\n\n";
+    let moved = format!("{}{}{}", &text[..start], quad, &text[end..]);
+    cornell_checks(
+        "direct",
+        &["mesh[0].translate[1]", "mesh[0].translate[0]"],
+        &moved,
+    );
+    let low = text.replace("1.998", "1.85");
+    cornell_checks(
+        "direct",
+        &["mesh[0].translate[2]", "triangle[10].vertices[2][2]"],
+        &low,
     );
 }

@@ -76,6 +76,35 @@ impl<R: Real> ShapeR<R> {
         }
     }
 
+    /// The point of a triangle or sphere that has the surface coordinates
+    /// of `p` (a point on it, as a value): the barycentrics of `p` in the
+    /// triangle, its direction from the sphere's centre. As a function of
+    /// the parameters it is how a point painted on the surface moves (the
+    /// material point that [`ShapeR::sample_point`] draws for fixed random
+    /// numbers); `None` for the shapes lights do not sample, and for a
+    /// degenerate triangle or sphere.
+    pub fn material_point(&self, p: Vec3) -> Option<V3<R>> {
+        match *self {
+            Self::Triangle { p: [a, b, c] } => {
+                let (e1, e2, d) = (b.value() - a.value(), c.value() - a.value(), p - a.value());
+                let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+                let det = d11 * d22 - d12 * d12;
+                if det.is_nan() || det <= 0.0 {
+                    return None;
+                }
+                let (d1, d2) = (d.dot(e1), d.dot(e2));
+                let u = (d22 * d1 - d12 * d2) / det;
+                let v = (d11 * d2 - d12 * d1) / det;
+                Some(a + (b - a) * R::from_f32(u) + (c - a) * R::from_f32(v))
+            }
+            Self::Sphere { centre, radius } => {
+                let n = (p - centre.value()).try_normalize()?;
+                Some(centre + V3::from_vec3(n) * radius)
+            }
+            Self::Ellipsoid { .. } | Self::Plane { .. } => None,
+        }
+    }
+
     /// A uniformly distributed point on a triangle or sphere and the unit
     /// normal there, from two uniform numbers: the point moves with the
     /// shape for fixed `u` (a reparameterisation of the uniform density).

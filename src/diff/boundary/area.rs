@@ -17,27 +17,47 @@
 //! ray finds, and is sampled with the other discontinuities over
 //! directions ([`super::vertex`]).
 //!
-//! At a vertex x (drawn by [`super::vertex`]) one occluder silhouette is
-//! chosen uniformly among the M seen from x ([`super::curves`]), a point
-//! s(t) uniformly on it, and the shadow rays' line from their origin o (x
-//! off the surface by the renderer's offset) through s is continued past
-//! it. Where it lands on an emitter at y, F± come from two shadow rays to
-//! y ± ε·m̂, and the sample is M · β · w_l (F⁻ − F⁺)(∂y/∂θ · (dy/dt × n_y)),
-//! β the path's throughput at x and dy/dt × n_y being m̂ times the change of
-//! variables |dy/dt|. ∂y/∂θ is the motion of the curve's point on the
-//! emitter for fixed t (dual numbers through x, s and the emitter's plane).
+//! At a vertex x (drawn by [`super::vertex`]) one occluder silhouette
+//! ([`super::curves`]) and a point s(t) on it are drawn with density P,
+//! and the shadow rays' line from their origin o (x off the surface by the
+//! renderer's offset) through s is continued past it. Where it lands on an
+//! emitter at y, F± come from two shadow rays to y ± ε·m̂, and the sample
+//! is β · w_l (F⁻ − F⁺)(∂y/∂θ · (dy/dt × n_y)) / P, β the path's
+//! throughput at x and dy/dt × n_y being m̂ times the change of variables
+//! |dy/dt|. ∂y/∂θ is the motion of the curve's point on the emitter for
+//! fixed t (dual numbers through x, s and the emitter's plane).
 //!
-//! Not covered here: an emitter that itself moves (its material points
-//! move with it, and the velocity that counts is the curve's relative to
-//! them).
+//! **Sampling.** F |dy/dt| carries cos θ_y / |x − y|² · |dy/dt|, the
+//! speed of the curve's image on the sphere of directions at x: near
+//! occluders and near emitters make it large. So the silhouettes are drawn
+//! in proportion to the angle they subtend at x and t uniformly in that
+//! angle ([`super::angles::ByAngle`]), which cancels that speed; and only
+//! the arcs of them whose directions enter a cone round some emitter's
+//! bounding sphere are drawn at all (a line outside every cone lands on
+//! no emitter, so nothing is lost, and no sample is spent there). Drawn
+//! uniformly among all silhouettes, most samples found no light.
 
+//! **A moving emitter.** Light sampling draws a point of the emitter for
+//! fixed random numbers, so its samples are material points that move
+//! with the emitter (and the interior derivative follows them). The
+//! integral is then over the emitter's surface coordinates, and what moves
+//! the visibility's curve in them is the curve's velocity *relative to the
+//! material point under it*: ∂y/∂θ − ∂Y/∂θ, Y the point with y's surface
+//! coordinates ([`crate::shape::ShapeR::material_point`]). For an emitter
+//! that does not move the second term is zero; for an emitter and occluder
+//! moving together with x fixed, it is the motion of the shadow across
+//! the light. The emitter's own border is fixed in those coordinates and
+//! adds nothing here; where it moves across the directions seen from x,
+//! the BRDF share is the direction term's.
+
+use super::angles::{ByAngle, Cone};
 use super::curves::{build, candidates, Edge};
 use super::{behind, BoundaryStats};
 use crate::diff::view::DualScene;
 use crate::math::{Dual, RayR, Real, Vec3, V3};
 use crate::scene::View;
 use crate::shading::{area_to_solid_angle, cosine_pdf, power_heuristic};
-use crate::shape::{HitR, ShapeR};
+use crate::shape::{HitR, ShapeR, OFFSET_SCALE};
 use crate::stats::NoStats;
 
 /// Relative distance (of |x − y|) from the curve on the emitter at which
@@ -66,13 +86,36 @@ pub(super) fn at_vertex<const K: usize>(
     // The silhouettes seen from x (of everything but x's own primitive),
     // chosen on values; only the chosen one is built on dual numbers.
     let picks = candidates(scene, edges, xv, found.prim, false, |_| true);
-    if picks.is_empty() {
+    let xf = V3::<f32>::from_vec3(xv);
+    // The cones round the emitters seen from x. The shadow rays start at
+    // o, at most `slack` from x ([`crate::shape::OFFSET_SCALE`]); the
+    // directions from o into a sphere are those from x into the sphere
+    // moved by x − o, inside the sphere grown by `slack`.
+    let slack = 2.0 * OFFSET_SCALE * xv.abs().max_element().max(1.0);
+    let cones: Vec<Cone> = scene
+        .area_lights
+        .emitters
+        .iter()
+        .map(|e| {
+            let (centre, radius) = e.bounding_sphere();
+            Cone::towards(xv, centre, radius + slack)
+        })
+        .collect();
+    let seen = ByAngle::new(
+        picks.iter().map(|&pick| {
+            build(pick, edges, xf, |prim| {
+                ShapeR::of(&scene.prims[prim as usize])
+            })
+        }),
+        xv,
+        Some(&cones),
+    );
+    if seen.is_empty() {
         return None;
     }
     stats.samples += 1;
-    let m = picks.len();
-    let pick = picks[((u_curve * m as f32) as usize).min(m - 1)];
-    let curve = build(pick, edges, x, |prim| view.geometry(prim))?;
+    let (i, t, density) = seen.draw(u_curve, t)?;
+    let curve = build(picks[i], edges, x, |prim| view.geometry(prim))?;
     let s = curve.point(Dual::from_f32(t));
     // Nothing between x and the silhouette point, then an emitter behind.
     let (sv, dir) = (s.value(), (s.value() - xv).try_normalize()?);
@@ -91,10 +134,14 @@ pub(super) fn at_vertex<const K: usize>(
         return None;
     }
     // y on the emitter, as a function of the parameters and of t.
-    let on = |r: RayR<Dual<K>>| HitR::on(&view.geometry(far.prim), None, &r, far);
+    let emitter = view.geometry(far.prim);
     let od = x + V3::from_vec3(o - xv);
-    let y_hit = on(RayR::new(od, (s - od).normalize()));
+    let y_hit = HitR::on(&emitter, None, &RayR::new(od, (s - od).normalize()), far);
     let y = y_hit.point;
+    // Light sampling draws the emitter's material points (fixed random
+    // numbers move with it), so the curve's velocity that counts is its
+    // velocity relative to the material point under it (module doc).
+    let painted = emitter.material_point(y.value())?;
     let curve1 = curve.map(|p| V3::<Dual<1>>::from_vec3(p.value()));
     let x1 = V3::<Dual<1>>::from_vec3(o);
     let s1 = curve1.point(Dual::<1>::variable(t, 0));
@@ -145,10 +192,14 @@ pub(super) fn at_vertex<const K: usize>(
     };
     let f = beta * le * albedo * (w * cos_x * cos_y / (std::f32::consts::PI * d2));
     let sign = if minus { 1.0 } else { -1.0 };
-    let scale = picks.len() as f64 * sign;
+    let scale = sign / density;
     let mut g = [[0.0f64; 3]; K];
     for (k, gk) in g.iter_mut().enumerate() {
-        let v = Vec3::new(y.x.d[k], y.y.d[k], y.z.d[k]);
+        let v = Vec3::new(
+            y.x.d[k] - painted.x.d[k],
+            y.y.d[k] - painted.y.d[k],
+            y.z.d[k] - painted.z.d[k],
+        );
         let speed = f64::from(v.dot(normal));
         for c in 0..3 {
             gk[c] = scale * f64::from(f[c]) * speed;

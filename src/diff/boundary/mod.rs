@@ -66,14 +66,17 @@
 //! sampling) and one over directions (its BRDF ray), and both have moving
 //! discontinuities: soft shadows on the emitters, and silhouettes, borders,
 //! creases and point lights' shadow edges seen from the vertex. They are
-//! sampled at every vertex of paths drawn as the path tracer draws them.
+//! sampled at every vertex of paths drawn as the path tracer draws them,
+//! each curve in proportion to the angle it subtends at the vertex
+//! ([`angles`]); a moving emitter counts by the motion relative to its
+//! own material points.
 //!
 //! **Not covered** (left to the interior derivative, hence biased where
 //! they act): edges seen in mirrors or through glass (the Whitted
-//! integrator's reflected and refracted rays), an emitter's own motion
-//! inside the integral over it, a plane's horizon, and curves where
-//! surfaces pass through each other.
+//! integrator's reflected and refracted rays), a plane's horizon, and
+//! curves where surfaces pass through each other.
 
+pub mod angles;
 pub mod area;
 pub mod curves;
 pub mod vertex;
