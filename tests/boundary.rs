@@ -549,7 +549,11 @@ fn cornell_checks(integrator: &str, names: &[&str], text: &str) {
 fn direct_lighting_area_shadows_are_in_the_full_derivative() {
     cornell_vertex_terms(
         "direct",
-        &["mesh[0].translate[2]", "mesh[1].translate[0]"],
+        &[
+            "mesh[0].translate[2]",
+            "mesh[1].translate[0]",
+            "camera.eye[0]",
+        ],
         "1.998",
     );
 }

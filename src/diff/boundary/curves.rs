@@ -95,40 +95,43 @@ pub struct Edge {
     pub smooth: bool,
 }
 
-/// Every edge of every triangle of `scene`, with the faces sharing it
-/// (mesh triangles by their vertex indices; a lone triangle's edges are
-/// its own).
+/// Every edge of every triangle of `scene`, with the faces sharing it:
+/// mesh triangles by their vertex indices, lone triangles (`[[triangle]]`
+/// entries) by their corners' positions. Two lone triangles that meet
+/// along an edge (a wall's two halves, a wall and the ceiling) share it:
+/// kept as two border edges, every jump across it would be sampled twice,
+/// once per border, each sample seeing the whole jump.
 pub fn mesh_edges(scene: &Scene) -> Vec<Edge> {
+    /// What identifies an edge: a mesh and two vertex indices, or two
+    /// corners' bits (−0 and +0 one key).
+    #[derive(Hash, PartialEq, Eq)]
+    enum Key {
+        Index(u32, u32, u32),
+        Position([[u32; 3]; 2]),
+    }
+    let bits = |p: Vec3| [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
     let mut edges: Vec<Edge> = Vec::new();
-    let mut index: HashMap<(u32, u32, u32), usize> = HashMap::new();
+    let mut index: HashMap<Key, usize> = HashMap::new();
     for (id, p) in scene.prims.iter().enumerate() {
         let Shape::Triangle(t) = &p.shape else {
             continue;
         };
         let id = id as u32;
-        let vertices = if t.mesh == NO_MESH {
-            None
-        } else {
-            Some(scene.meshes[t.mesh as usize].triangles[t.face as usize])
-        };
         let smooth = t.mesh != NO_MESH && !scene.meshes[t.mesh as usize].normals.is_empty();
         for (i, j) in [(0, 1), (1, 2), (2, 0)] {
-            let ends = [(id, i), (id, j)];
-            let Some(v) = vertices else {
-                edges.push(Edge {
-                    ends,
-                    faces: vec![id],
-                    smooth: false,
-                });
-                continue;
+            let key = if t.mesh == NO_MESH {
+                let (a, b) = (bits(t.p[i]), bits(t.p[j]));
+                Key::Position([a.min(b), a.max(b)])
+            } else {
+                let v = scene.meshes[t.mesh as usize].triangles[t.face as usize];
+                Key::Index(t.mesh, v[i].min(v[j]), v[i].max(v[j]))
             };
-            let key = (t.mesh, v[i].min(v[j]), v[i].max(v[j]));
             match index.get(&key) {
                 Some(&e) => edges[e].faces.push(id),
                 None => {
                     index.insert(key, edges.len());
                     edges.push(Edge {
-                        ends,
+                        ends: [(id, i), (id, j)],
                         faces: vec![id],
                         smooth,
                     });
@@ -152,7 +155,8 @@ fn side(scene: &Scene, prim: u32, o: Vec3) -> (f32, Vec3) {
 /// Whether `e` is a discontinuity of what `o` sees: a border or
 /// non-manifold edge, a silhouette (its faces on opposite sides of `o`),
 /// or, with `creases`, an edge between faces facing `o` the same way whose
-/// flat shading differs (normals more than 10⁻³ rad apart).
+/// shading differs: flat shading with normals more than 10⁻³ rad apart,
+/// or two materials.
 pub fn edge_matters(scene: &Scene, e: &Edge, o: Vec3, creases: bool) -> bool {
     if e.faces.len() != 2 {
         return true;
@@ -162,7 +166,10 @@ pub fn edge_matters(scene: &Scene, e: &Edge, o: Vec3, creases: bool) -> bool {
     if s0 != s1 {
         return true;
     }
-    creases && !e.smooth && n0.cross(n1).length() > 1e-3
+    let material = |f: u32| scene.objects[scene.prims[f as usize].object as usize].material;
+    creases
+        && ((!e.smooth && n0.cross(n1).length() > 1e-3)
+            || material(e.faces[0]) != material(e.faces[1]))
 }
 
 /// Edge `e`'s segment, its end points taken from `point(prim, corner)`.
@@ -314,5 +321,54 @@ mod tests {
             }
         }
         assert!(M3::diagonal(v(1.0, 0.0, 1.0)).inverse().is_none());
+    }
+
+    /// Lone triangles that meet share their edge (the Cornell box's walls
+    /// had each crease twice, once per border, and each border's samples
+    /// saw the whole jump: camera derivatives along the ceiling's creases
+    /// came out about twice the boundary term). Seen from the eye, an edge
+    /// between two materials in one plane is a crease, one inside a
+    /// material is none; −0 and +0 are one corner.
+    #[test]
+    fn lone_triangles_that_meet_share_their_edges() {
+        let text = r#"
+[image]
+width = 8
+height = 8
+[camera]
+eye = [0.5, 0.5, 5.0]
+look_at = [0.5, 0.5, 0.0]
+fov = 40.0
+[materials.a]
+color = [1.0, 1.0, 1.0]
+[materials.b]
+color = [0.5, 0.5, 0.5]
+[[triangle]]
+vertices = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]]
+material = "a"
+[[triangle]]
+vertices = [[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]]
+material = "a"
+[[triangle]]
+vertices = [[-0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.5, 2.0, 0.0]]
+material = "b"
+"#;
+        let overrides = crate::io::scene_file::Overrides::default();
+        let scene =
+            crate::io::scene_file::parse_scene(text, std::path::Path::new("t.toml"), &overrides)
+                .unwrap();
+        let edges = mesh_edges(&scene);
+        assert_eq!(edges.len(), 7, "{edges:?}");
+        let shared: Vec<&Edge> = edges.iter().filter(|e| e.faces.len() == 2).collect();
+        assert_eq!(shared.len(), 2);
+        let eye = Vec3::new(0.5, 0.5, 5.0);
+        let matters: Vec<bool> = shared
+            .iter()
+            .map(|e| edge_matters(&scene, e, eye, true))
+            .collect();
+        // The diagonal (faces 0 and 1, one material) and the a–b edge.
+        assert_eq!(shared[0].faces, vec![0, 1]);
+        assert_eq!(matters, vec![false, true]);
+        assert!(!edge_matters(&scene, shared[1], eye, false));
     }
 }
