@@ -48,14 +48,11 @@ impl Cone {
                 cos: -1.0,
             };
         }
-        let half = (radius / dist).asin();
+        // The half-angle's sine is radius / dist.
+        let sin = radius / dist;
         Cone {
             axis: d / dist,
-            cos: if half >= std::f32::consts::PI {
-                -1.0
-            } else {
-                half.cos()
-            },
+            cos: (1.0 - sin * sin).sqrt(),
         }
     }
 }

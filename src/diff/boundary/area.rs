@@ -36,7 +36,7 @@
 //! bounding sphere are drawn at all (a line outside every cone lands on
 //! no emitter, so nothing is lost, and no sample is spent there). Drawn
 //! uniformly among all silhouettes, most samples found no light.
-
+//!
 //! **A moving emitter.** Light sampling draws a point of the emitter for
 //! fixed random numbers, so its samples are material points that move
 //! with the emitter (and the interior derivative follows them). The
