@@ -3,6 +3,7 @@
 //! tessellations) and the silhouette and crease edges of triangle meshes,
 //! as functions of the parameters ([`Real`]).
 
+use crate::camera::Frame;
 use crate::math::{orthonormal_basis_r, Real, Vec3, M3, V3};
 use crate::scene::Scene;
 use crate::shape::triangle::NO_MESH;
@@ -190,6 +191,36 @@ pub fn smooth_silhouette<R: Real>(shape: &ShapeR<R>, o: V3<R>) -> Option<Curve<R
     }
 }
 
+/// The horizon of a plane with unit normal `normal` seen by the camera
+/// `frame`: the film line of the directions parallel to the plane (where
+/// the plane, infinitely far, meets what lies beyond it). As a curve in
+/// 3-D it is the segment e + a + λ·b, λ ∈ [−L, L], with e the eye, a the
+/// view direction's part in the plane (unit) and b = normal × a: every
+/// point of it lies in the direction e + (a direction parallel to the
+/// plane), and L is long enough for the segment's image to cross the
+/// whole film. Its motion is that of the camera's turning and the plane's
+/// tilt, not of the eye's or the plane's translation. `None` when the
+/// camera looks along the normal (the horizon is at the film's infinity).
+pub fn horizon<R: Real>(frame: &Frame<R>, normal: V3<R>) -> Option<Curve<R>> {
+    let forward = -frame.n;
+    let along = forward - normal * forward.dot(normal);
+    let depth = along.value().length();
+    if depth < 1e-3 {
+        return None;
+    }
+    let a = along.normalize();
+    let b = normal.cross(a);
+    // The segment's image runs through the film, near·λ/depth from the
+    // image of e + a, itself at most as far from the centre as a corner
+    // is when the horizon is on the film at all.
+    let corner = frame.half_width.value().hypot(frame.half_height.value());
+    let reach = R::from_f32(4.0 * corner / frame.near.value() * depth + 1.0);
+    Some(Curve::Segment {
+        p0: frame.eye + a - b * reach,
+        p1: frame.eye + a + b * reach,
+    })
+}
+
 /// A curve seen from a shading point, chosen on values before it is built
 /// on dual numbers: a smooth primitive's silhouette or a mesh edge (an
 /// index into [`mesh_edges`]).
@@ -256,6 +287,57 @@ mod tests {
 
     fn v(x: f32, y: f32, z: f32) -> V3<f32> {
         V3::new(x, y, z)
+    }
+
+    /// The horizon's points all lie in directions parallel to the plane,
+    /// and its image crosses the film as a straight line from border to
+    /// border where the horizon is in view: at the film height a ray
+    /// parallel to the plane takes.
+    #[test]
+    fn a_horizon_is_the_film_line_of_directions_parallel_to_the_plane() {
+        let (w, h) = (40, 30);
+        let eye = v(0.3, 1.5, 6.0);
+        let frame = Frame::new(
+            eye,
+            v(0.0, 1.0, 0.0),
+            v(0.0, 1.0, 0.0),
+            40.0,
+            4.0 / 3.0,
+            1.0,
+        )
+        .unwrap();
+        let normal = v(0.05, 1.0, 0.1).normalize();
+        let curve = horizon(&frame, normal).unwrap();
+        let mut xs = Vec::new();
+        for i in 0..=100 {
+            let s = curve.point(i as f32 / 100.0);
+            assert!((s - eye).dot(normal).abs() < 1e-5, "{i}");
+            if let Some((x, y)) = frame.project(s, w, h) {
+                xs.push(x);
+                // A ray through (x, y) is parallel to the plane.
+                let ray = frame.ray(x, y, w, h);
+                assert!(
+                    ray.dir.dot(normal).abs() < 1e-4,
+                    "{i}: {}",
+                    ray.dir.dot(normal)
+                );
+            }
+        }
+        let (lo, hi) = xs
+            .iter()
+            .fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+        assert!(lo < 0.0 && hi > w as f32, "{lo} {hi}");
+        // Looking straight down the normal, the horizon is at infinity.
+        let down = Frame::new(
+            eye,
+            eye - v(0.0, 5.0, 0.0),
+            v(0.0, 0.0, 1.0),
+            40.0,
+            1.0,
+            1.0,
+        )
+        .unwrap();
+        assert!(horizon(&down, v(0.0, 1.0, 0.0)).is_none());
     }
 
     #[test]

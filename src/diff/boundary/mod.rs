@@ -49,7 +49,16 @@
 //! from the eye, its creases where flat shading jumps. The viewpoints are
 //! the eye (silhouettes and creases, moving with the object or the camera)
 //! and every point light the integrator uses (shadow edges, moving with
-//! the occluder, the light, the receiver or the camera).
+//! the occluder, the light, the receiver or the camera). The eye also sees
+//! each plane's horizon, the film line of the directions parallel to it,
+//! which moves when the camera turns or the plane tilts
+//! ([`curves::horizon`]).
+//!
+//! **In flat mirrors** ([`mirror`]): under Whitted, what a reflecting
+//! plane or lone triangle shows is the scene seen from the eye's mirror
+//! image, so each curve is sampled once more per mirror, placed on the
+//! film at the projection of its mirror image; the integrator's own
+//! radiance on either side tells whether the mirror shows it there.
 //!
 //! **Why edge sampling.** raylab's primitives have exact silhouettes, and
 //! edge sampling turns each into a 1-D integral whose estimate is unbiased
@@ -72,13 +81,18 @@
 //! own material points.
 //!
 //! **Not covered** (left to the interior derivative, hence biased where
-//! they act): edges seen in mirrors or through glass (the Whitted
-//! integrator's reflected and refracted rays), a plane's horizon, and
-//! curves where surfaces pass through each other.
+//! they act): edges seen in curved mirrors (spheres, ellipsoids, meshes),
+//! after a second reflection or through glass (the Whitted integrator's
+//! refracted rays), a plane's horizon seen in a mirror or from a path
+//! vertex, curves where surfaces pass through each other, and an edge that rests
+//! on another surface (a block on a floor): moved into that surface it
+//! moves nothing visible, while the term moves it with its jump (the
+//! derivative at a contact is one-sided).
 
 pub mod angles;
 pub mod area;
 pub mod curves;
+pub mod mirror;
 pub mod vertex;
 
 use super::params::{Entity, Param};
@@ -90,7 +104,8 @@ use crate::math::{max_abs, Dual, Ray, RayR, Real, SplitMix64, Vec3, V3};
 use crate::scene::{Scene, View};
 use crate::shape::{Hit, HitR, Shape, ShapeR, OFFSET_SCALE};
 use crate::stats::NoStats;
-use curves::{edge_curve, edge_matters, mesh_edges, smooth_silhouette, Curve};
+use curves::{edge_curve, edge_matters, horizon, mesh_edges, smooth_silhouette, Curve};
+use mirror::{mirrors, Mirror};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::time::Instant;
@@ -241,10 +256,12 @@ pub fn is_geometric(p: &Param) -> bool {
 }
 
 /// One curve to sample: where it lies, seen from the eye (`light` None)
-/// or from point light `light`, and how many samples it gets.
+/// or from point light `light`, directly or in `mirror`, and how many
+/// samples it gets.
 struct Job<const K: usize> {
     curve: Curve<Dual<K>>,
     light: Option<usize>,
+    mirror: Option<Mirror<Dual<K>>>,
     samples: u32,
 }
 
@@ -321,7 +338,9 @@ fn collect_curves<const K: usize>(
     let camera = params.iter().any(|p| p.entity == Entity::Camera);
     let any_object = (0..scene.objects.len() as u32).any(|o| view.moves(o));
     let whitted = matches!(integrator, IntegratorKind::Whitted);
-    // Viewpoints: the eye, then the point lights the integrator uses.
+    // Viewpoints: the eye, then the point lights the integrator uses;
+    // under Whitted, the same again in each flat mirror, with the eye's
+    // mirror image in place of the eye (`mirror`).
     let mut viewpoints: Vec<(Option<usize>, V3<Dual<K>>, bool)> = Vec::new();
     viewpoints.push((None, view.frame().eye, camera));
     for (i, l) in scene.lights.iter().enumerate() {
@@ -339,39 +358,65 @@ fn collect_curves<const K: usize>(
         viewpoints.push((Some(i), position, moves || camera || any_object));
     }
     let edges = mesh_edges(scene);
+    let mirrors = if whitted { mirrors(view) } else { Vec::new() };
     let mut jobs = Vec::new();
-    for (light, o, all) in viewpoints {
-        let include = |object: u32| all || view.moves(object);
-        let mut curves = Vec::new();
-        for (prim, p) in scene.prims.iter().enumerate() {
-            let smooth = matches!(p.shape, Shape::Sphere(_) | Shape::Ellipsoid(_));
-            if smooth && include(p.object) {
-                if let Some(c) = smooth_silhouette(&view.geometry(prim as u32), o) {
-                    curves.push(c);
+    for mirror in std::iter::once(None).chain(mirrors.into_iter().map(Some)) {
+        for &(light, o, all) in &viewpoints {
+            let (o, all) = match (mirror, light) {
+                (Some(m), None) => (m.reflect(o), all || view.moves(m.object)),
+                _ => (o, all),
+            };
+            let include = |object: u32| all || view.moves(object);
+            let mut curves = Vec::new();
+            for (prim, p) in scene.prims.iter().enumerate() {
+                let smooth = matches!(p.shape, Shape::Sphere(_) | Shape::Ellipsoid(_));
+                if smooth && include(p.object) {
+                    if let Some(c) = smooth_silhouette(&view.geometry(prim as u32), o) {
+                        curves.push(c);
+                    }
                 }
             }
-        }
-        for e in &edges {
-            let object = scene.prims[e.faces[0] as usize].object;
-            if include(object) && edge_matters(scene, e, o.value(), light.is_none()) {
-                curves.push(edge_curve(e, |prim, corner| match view.geometry(prim) {
-                    ShapeR::Triangle { p } => p[corner],
-                    _ => unreachable!("mesh edges join triangles"),
-                }));
+            for e in &edges {
+                let object = scene.prims[e.faces[0] as usize].object;
+                if include(object) && edge_matters(scene, e, o.value(), light.is_none()) {
+                    let c = edge_curve(e, |prim, corner| match view.geometry(prim) {
+                        ShapeR::Triangle { p } => p[corner],
+                        _ => unreachable!("mesh edges join triangles"),
+                    });
+                    // Seen from the eye, an edge in the mirror's plane is
+                    // its own image.
+                    let ends = [c.point(Dual::zero()), c.point(Dual::one())];
+                    let own = |m: Mirror<Dual<K>>| ends.iter().all(|p| m.holds(p.value()));
+                    if !(light.is_none() && mirror.is_some_and(own)) {
+                        curves.push(c);
+                    }
+                }
             }
-        }
-        for curve in curves {
-            let length = film_length(view, &curve, light, stats);
-            let samples = (density * length).ceil().clamp(2.0, 1e7) as u32;
-            match light {
-                None => stats.primary_curves += 1,
-                Some(_) => stats.shadow_curves += 1,
+            // Seen directly from the eye, the planes' horizons.
+            if light.is_none() && mirror.is_none() {
+                for (prim, p) in scene.prims.iter().enumerate() {
+                    if !(matches!(p.shape, Shape::Plane(_)) && include(p.object)) {
+                        continue;
+                    }
+                    if let ShapeR::Plane { normal, .. } = view.geometry(prim as u32) {
+                        curves.extend(horizon(view.frame(), normal));
+                    }
+                }
             }
-            jobs.push(Job {
-                curve,
-                light,
-                samples,
-            });
+            for curve in curves {
+                let length = film_length(view, &curve, light, mirror.as_ref(), stats);
+                let samples = (density * length).ceil().clamp(2.0, 1e7) as u32;
+                match light {
+                    None => stats.primary_curves += 1,
+                    Some(_) => stats.shadow_curves += 1,
+                }
+                jobs.push(Job {
+                    curve,
+                    light,
+                    mirror,
+                    samples,
+                });
+            }
         }
     }
     jobs
@@ -397,16 +442,24 @@ fn behind(scene: &Scene, l: Vec3, s: Vec3) -> Option<Hit> {
 
 /// Where the curve point `s` lies on the film: seen directly (`shadow`
 /// None), or the point of `receiver` hit at `hit` by the ray from light
-/// position `l` through `s`.
+/// position `l` through `s`; directly, or in `mirror` (`None` for a shadow
+/// edge in the mirror's own plane, seen directly instead).
 fn on_film<R: Real>(
     frame: &Frame<R>,
     (w, h): (u32, u32),
     s: V3<R>,
     shadow: Option<(V3<R>, Hit, ShapeR<R>)>,
+    mirror: Option<&Mirror<R>>,
 ) -> Option<(R, R)> {
+    let shadowed = shadow.is_some();
     let p = match shadow {
         None => s,
         Some((l, hit, receiver)) => shadow_point(l, s, hit, &receiver),
+    };
+    let p = match mirror {
+        None => p,
+        Some(m) if shadowed && m.holds(p.value()) => return None,
+        Some(m) => m.reflect(p),
     };
     frame.project(p, w, h)
 }
@@ -432,6 +485,7 @@ fn film_length<const K: usize>(
     view: &DualScene<'_, K>,
     curve: &Curve<Dual<K>>,
     light: Option<usize>,
+    mirror: Option<&Mirror<Dual<K>>>,
     stats: &mut BoundaryStats,
 ) -> f32 {
     let scene = view.scene();
@@ -439,6 +493,7 @@ fn film_length<const K: usize>(
     let frame = scene.camera.frame();
     let c = curve.map(|p| V3::<f32>::from_vec3(p.value()));
     let l = light.map(|i| scene.lights[i].position);
+    let mirror = mirror.map(|m| m.value::<f32>());
     let mut points = Vec::with_capacity(LENGTH_POINTS + 1);
     for i in 0..=LENGTH_POINTS {
         let s = c.point(i as f32 / LENGTH_POINTS as f32);
@@ -455,7 +510,7 @@ fn film_length<const K: usize>(
                 })
             }
         };
-        points.push(on_film(&frame, (w, h), s, shadow));
+        points.push(on_film(&frame, (w, h), s, shadow, mirror.as_ref()));
     }
     let inside =
         |(x, y): (f32, f32)| x >= -1.0 && y >= -1.0 && x <= w as f32 + 1.0 && y <= h as f32 + 1.0;
@@ -492,6 +547,7 @@ fn sample_curve<const K: usize>(
     let mut rng = SplitMix64(seed);
     let mut sums: HashMap<usize, Sums<K>> = HashMap::new();
     let light = job.light.map(|i| view.point_light(i).0);
+    let mirror1 = job.mirror.map(|m| m.value::<Dual<1>>());
     for index in 0..job.samples {
         let t = rng.next_f32();
         let s = job.curve.point(Dual::from_f32(t));
@@ -511,6 +567,7 @@ fn sample_curve<const K: usize>(
             (w, h),
             s,
             hit.map(|(l, hit)| (l, hit, view.geometry(hit.prim))),
+            job.mirror.as_ref(),
         );
         let x1 = on_film(
             &frame1,
@@ -520,6 +577,7 @@ fn sample_curve<const K: usize>(
                 let shape = ShapeR::of(&scene.prims[hit.prim as usize]);
                 (V3::from_vec3(l.value()), hit, shape)
             }),
+            mirror1.as_ref(),
         );
         let (Some((x, y)), Some((x1, y1))) = (x, x1) else {
             continue;
