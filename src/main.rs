@@ -55,8 +55,9 @@ enum Command {
     /// added: edge sampling of the silhouettes and shadow edges the camera
     /// sees and, under `direct` and `path:K`, of those every path vertex
     /// sees (soft shadows, indirect light, point lights' shadows at later
-    /// vertices); under Whitted, also of those seen in flat mirrors (planes
-    /// and lone triangles that reflect) and of planes' horizons. Not
+    /// vertices); under Whitted, also of those seen in flat mirrors
+    /// (reflecting planes, triangles and planar meshes) and of planes'
+    /// horizons. Not
     /// covered: edges seen in curved mirrors or through glass.
     /// `--check fd` measures the difference against central finite
     /// differences.

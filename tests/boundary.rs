@@ -776,7 +776,8 @@ fn ellipsoid_silhouettes_and_shadows_are_in_the_full_derivative() {
 /// light: the sphere's silhouette and its shadow are seen directly and
 /// in the floor (`diff::boundary::mirror`); raising the floor moves the
 /// mirror itself, and tilting it or raising the camera moves its horizon
-/// (`diff::boundary::curves::horizon`).
+/// (`diff::boundary::curves::horizon`). Then the same sphere before a
+/// mirror made of a mesh.
 #[test]
 fn edges_seen_in_a_flat_mirror_are_in_the_full_derivative() {
     let object = "[[sphere]]\ncenter = [0.0, 0.9, 0.0]\nradius = 0.6";
@@ -791,6 +792,23 @@ fn edges_seen_in_a_flat_mirror_are_in_the_full_derivative() {
             ("camera.eye[1]", 0.02),
             ("plane[0].point[1]", 0.01),
             ("plane[0].normal[2]", 0.01),
+        ],
+        16,
+    );
+    // A mirror made of a mesh (the unit quad, two triangles, standing
+    // behind the sphere and turned), moved and turned itself.
+    let mirror = "[materials.mirror]\ncolor = [0.9, 0.9, 0.9]\ndiffuse = 0.1\n\
+                  reflectivity = 0.8\n[[mesh]]\nfile = \"../meshes/quad.obj\"\n\
+                  material = \"mirror\"\nscale = 2.0\nrotate = [-90.0, 20.0, 0.0]\n\
+                  translate = [0.0, 1.1, -1.5]\n";
+    averaged_checks(
+        &cornell_path(),
+        &(over_a_floor(object, "diffuse = 0.9") + mirror),
+        "whitted",
+        &[
+            ("sphere[0].center[0]", 0.01),
+            ("mesh[0].translate[2]", 0.01),
+            ("mesh[0].rotate[1]", 0.5),
         ],
         16,
     );

@@ -55,7 +55,7 @@
 //! ([`curves::horizon`]).
 //!
 //! **In flat mirrors** ([`mirror`]): under Whitted, what a reflecting
-//! plane or lone triangle shows is the scene seen from the eye's mirror
+//! plane, lone triangle or planar mesh shows is the scene seen from the eye's mirror
 //! image, so each curve is sampled once more per mirror, placed on the
 //! film at the projection of its mirror image; the integrator's own
 //! radiance on either side tells whether the mirror shows it there.
@@ -81,7 +81,8 @@
 //! own material points.
 //!
 //! **Not covered** (left to the interior derivative, hence biased where
-//! they act): edges seen in curved mirrors (spheres, ellipsoids, meshes),
+//! they act): edges seen in curved mirrors (spheres, ellipsoids, meshes
+//! not in one plane),
 //! after a second reflection or through glass (the Whitted integrator's
 //! refracted rays), a plane's horizon seen in a mirror or from a path
 //! vertex, curves where surfaces pass through each other, and an edge that rests
@@ -169,7 +170,8 @@ pub struct BoundaryStats {
     pub paths: u64,
     pub vertices: u64,
     /// Rays cast to find and test curve points: from point lights past a
-    /// curve (shadow edges, their film lengths), from path vertices
+    /// curve (shadow edges, their film lengths), into a flat mirror and on
+    /// to the curve point it shows (two per sample), from path vertices
     /// (visibility of the curve point, the area-light term's shadow rays);
     /// and radiance evaluations (two per landed sample: a camera ray, or a
     /// vertex's ray along a direction, and all that follows it).
@@ -548,6 +550,7 @@ fn sample_curve<const K: usize>(
     let mut sums: HashMap<usize, Sums<K>> = HashMap::new();
     let light = job.light.map(|i| view.point_light(i).0);
     let mirror1 = job.mirror.map(|m| m.value::<Dual<1>>());
+    let mirror0 = job.mirror.map(|m| m.value::<f32>());
     for index in 0..job.samples {
         let t = rng.next_f32();
         let s = job.curve.point(Dual::from_f32(t));
@@ -584,6 +587,17 @@ fn sample_curve<const K: usize>(
         };
         if !(x.v >= 0.0 && y.v >= 0.0 && x.v < w as f32 && y.v < h as f32) {
             continue;
+        }
+        if let Some(m) = &mirror0 {
+            // Only where the mirror shows the curve point is there an edge.
+            let target = match hit {
+                None => s.value(),
+                Some((l, hit)) => shadow_point(l, s, hit, &view.geometry(hit.prim)).value(),
+            };
+            stats.light_rays += 2;
+            if !m.shows(scene, (x.v, y.v), target) {
+                continue;
+            }
         }
         // ⊥(dx/dt): a normal of the curve on the film, |dx/dt| long.
         let normal = (-y1.d[0], x1.d[0]);
