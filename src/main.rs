@@ -52,13 +52,10 @@ enum Command {
     /// the change of which surface a sample sees when a parameter moves
     /// geometry (positions, radii, transforms, the camera, light
     /// positions). By default (`--visibility full`) the boundary term is
-    /// added: edge sampling of the silhouettes and shadow edges the camera
-    /// sees and, under `direct` and `path:K`, of those every path vertex
-    /// sees (soft shadows, indirect light, point lights' shadows at later
-    /// vertices); under Whitted, also of those seen in flat mirrors
-    /// (reflecting planes, triangles and planar meshes) and of planes'
-    /// horizons. Not
-    /// covered: edges seen in curved mirrors or through glass.
+    /// added: edge sampling of the silhouettes, horizons and shadow edges
+    /// the camera sees (under Whitted, in flat mirrors too) and, under
+    /// `direct` and `path:K`, those every path vertex sees. Not covered:
+    /// edges seen in curved mirrors or through glass.
     /// `--check fd` measures the difference against central finite
     /// differences.
     Grad(GradArgs),
