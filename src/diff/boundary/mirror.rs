@@ -15,8 +15,8 @@
 //! ray at x meets M first and the reflected ray reaches s, two rays):
 //! elsewhere there is no edge at x, and the two evaluations would differ
 //! by the image's smooth change over 2ε, a small bias summed along all of
-//! a reflected curve that the mirror does not show (the mirror test's
-//! mesh mirror failed on 5 % of its pixels with it).
+//! a reflected curve that the mirror does not show (without the check,
+//! the mirror test's mesh mirror failed on 5 % of its pixels).
 //!
 //! Coplanar mirrors (a quad's two triangles) are one mirror: sampled once
 //! per triangle, a curve seen in both would be counted twice. Curves in
