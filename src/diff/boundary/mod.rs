@@ -55,10 +55,10 @@
 //! ([`curves::horizon`]).
 //!
 //! **In flat mirrors** ([`mirror`]): under Whitted, what a reflecting
-//! plane, lone triangle or planar mesh shows is the scene seen from the eye's mirror
-//! image, so each curve is sampled once more per mirror, placed on the
-//! film at the projection of its mirror image; the integrator's own
-//! radiance on either side tells whether the mirror shows it there.
+//! plane, lone triangle or planar mesh shows is the scene seen from the
+//! eye's mirror image, so each curve is sampled once more per mirror,
+//! placed on the film at the projection of its mirror image, and a sample
+//! counts where two rays find that the mirror shows the curve point.
 //!
 //! **Why edge sampling.** raylab's primitives have exact silhouettes, and
 //! edge sampling turns each into a 1-D integral whose estimate is unbiased
@@ -82,13 +82,12 @@
 //!
 //! **Not covered** (left to the interior derivative, hence biased where
 //! they act): edges seen in curved mirrors (spheres, ellipsoids, meshes
-//! not in one plane),
-//! after a second reflection or through glass (the Whitted integrator's
-//! refracted rays), a plane's horizon seen in a mirror or from a path
-//! vertex, curves where surfaces pass through each other, and an edge that rests
-//! on another surface (a block on a floor): moved into that surface it
-//! moves nothing visible, while the term moves it with its jump (the
-//! derivative at a contact is one-sided).
+//! not in one plane), after a second reflection or through glass (the
+//! Whitted integrator's refracted rays), a plane's horizon seen in a
+//! mirror or from a path vertex, curves where surfaces pass through each
+//! other, and an edge that rests on another surface (a block on a floor):
+//! moved into that surface it moves nothing visible, while the term moves
+//! it with its jump (the derivative at a contact is one-sided).
 
 pub mod angles;
 pub mod area;
