@@ -74,11 +74,18 @@ impl<R: Real> Frame<R> {
     /// top edge. The direction is unit length so that `t` is a distance.
     #[inline]
     pub fn ray(&self, x: f32, y: f32, width: u32, height: u32) -> RayR<R> {
+        self.ray_at(R::from_f32(x), R::from_f32(y), width, height)
+    }
+
+    /// [`Frame::ray`] with the film position as a function of the
+    /// parameters too (the same operations, so the same `f32` ray).
+    #[inline]
+    pub fn ray_at(&self, x: R, y: R, width: u32, height: u32) -> RayR<R> {
         let (w, h) = (self.half_width, self.half_height);
         let two = R::from_f32(2.0);
-        let uc = -w + two * w * R::from_f32(x) / R::from_f32(width as f32);
-        let r = height as f32 - y;
-        let vr = -h + two * h * R::from_f32(r) / R::from_f32(height as f32);
+        let uc = -w + two * w * x / R::from_f32(width as f32);
+        let r = R::from_f32(height as f32) - y;
+        let vr = -h + two * h * r / R::from_f32(height as f32);
         let dir = self.n * -self.near + self.u * uc + self.v * vr;
         RayR::new(self.eye, dir.normalize())
     }

@@ -53,9 +53,9 @@ enum Command {
     /// geometry (positions, radii, transforms, the camera, light
     /// positions). By default (`--visibility full`) the boundary term is
     /// added: edge sampling of the silhouettes, horizons and shadow edges
-    /// the camera sees (under Whitted, in flat mirrors too) and, under
-    /// `direct` and `path:K`, those every path vertex sees. Not covered:
-    /// edges seen in curved mirrors or through glass.
+    /// the camera sees (under Whitted, in flat and curved mirrors too) and,
+    /// under `direct` and `path:K`, those every path vertex sees. Not
+    /// covered: edges seen through glass, meshes in a curved mirror.
     /// `--check fd` measures the difference against central finite
     /// differences.
     Grad(GradArgs),

@@ -602,6 +602,18 @@ fn cornell_checks(integrator: &str, names: &[&str], text: &str) {
 /// `size` pixels: with `full` ≥ 99 % of pixels pass [`judge`] and the
 /// image mean's |z| < 4; with `interior` fewer than 97 % pass.
 fn averaged_checks(path: &Path, text: &str, integrator: &str, names: &[(&str, f32)], size: u32) {
+    averaged_checks_to(path, text, integrator, names, size, 0.99);
+}
+
+/// [`averaged_checks`] with `share` in place of its 99 %.
+fn averaged_checks_to(
+    path: &Path,
+    text: &str,
+    integrator: &str,
+    names: &[(&str, f32)],
+    size: u32,
+    share: f64,
+) {
     const RENDERS: u32 = 64;
     let file: SceneFile = toml::from_str(text).unwrap();
     let integrator = IntegratorKind::parse(integrator).unwrap();
@@ -631,7 +643,7 @@ fn averaged_checks(path: &Path, text: &str, integrator: &str, names: &[(&str, f3
             "{name}, h = {h}: pixels within 4 SE: full {sf:.4}, interior {si:.4}; \
              image mean z: full {zf:.2}, interior {zi:.1}"
         );
-        assert!(sf >= 0.99, "{name}: full, share {sf}");
+        assert!(sf >= share, "{name}: full, share {sf}");
         assert!(zf.abs() < 4.0, "{name}: full, z = {zf}");
         assert!(si < 0.97, "{name}: interior, share {si}");
     }
@@ -812,4 +824,34 @@ fn edges_seen_in_a_flat_mirror_are_in_the_full_derivative() {
         ],
         16,
     );
+}
+
+/// A sphere beside a mirror sphere over a floor under a point light: the
+/// mirror shows the floor's horizon, the sphere's silhouette and the
+/// shadows on the floor, each on a curve of the film found where it
+/// appears (`diff::boundary::curved`). Moving the sphere, the light or
+/// the camera moves them: ≥ 99 % of pixels pass. Moving the mirror itself
+/// passes on the image mean and on ≥ 98 % of pixels (measured 0.990 and
+/// 0.983): along its rim the image's derivative has an integrable
+/// singularity, which only the interior derivative's rare samples within
+/// hundredths of a pixel of the rim estimate (the reflected ray there
+/// turns as the square root of the distance from the rim, and what lies
+/// behind the mirror, here the horizon and the mirror's own shadow,
+/// crowds into that band).
+#[test]
+fn edges_seen_in_a_curved_mirror_are_in_the_full_derivative() {
+    let object = "[[sphere]]\ncenter = [0.7, 0.6, 0.6]\nradius = 0.5";
+    let mirror = "[materials.mirror]\ncolor = [0.9, 0.9, 0.9]\ndiffuse = 0.1\n\
+                  reflectivity = 0.8\n[[sphere]]\ncenter = [-0.5, 1.1, -1.2]\n\
+                  radius = 1.0\nmaterial = \"mirror\"\n";
+    let text = over_a_floor(object, "diffuse = 0.9") + mirror;
+    let path = Path::new("test.toml");
+    let moves_what_it_shows = [
+        ("sphere[0].center[0]", 0.01),
+        ("light[0].position[0]", 0.02),
+        ("camera.eye[1]", 0.02),
+    ];
+    averaged_checks(path, &text, "whitted", &moves_what_it_shows, 24);
+    let moves_the_mirror = [("sphere[1].center[0]", 0.01), ("sphere[1].radius", 0.01)];
+    averaged_checks_to(path, &text, "whitted", &moves_the_mirror, 24, 0.98);
 }

@@ -25,6 +25,7 @@ use crate::lighting::{point_light_incidence, LightModel};
 use crate::math::{Color, Ray, RayR, Real, V3};
 use crate::scene::{Scene, View};
 use crate::shading::{emission_and_ambient, phong, reflect, refract, Phong};
+use crate::shape::Hit;
 use crate::stats::{RayKind, Stats};
 use smallvec::SmallVec;
 
@@ -112,6 +113,35 @@ impl Whitted {
         stats.ray(RayKind::Camera);
         trace(view, ray, 0, 1.0, MediumStack::default(), stats)
     }
+
+    /// The colour along camera ray `ray` given its first hit `hit` instead
+    /// of finding it: how the boundary term takes the limit of the colour
+    /// at a curved surface's silhouette from inside, where the hit grazes
+    /// (a reflected ray there turns by twice the angle to the tangent
+    /// plane, which shrinks only as the square root of the distance from
+    /// the silhouette on the film).
+    pub fn radiance_at_hit<V: View, S: Stats>(
+        &self,
+        view: &V,
+        ray: &RayR<V::R>,
+        hit: Hit,
+        stats: &mut S,
+    ) -> V3<V::R> {
+        stats.ray(RayKind::Camera);
+        let first = Pending {
+            ray: *ray,
+            factor: V::R::one(),
+            depth: 0,
+            weight: 1.0,
+            media: MediumStack::default(),
+        };
+        let mut pending: PendingStack<V::R> = SmallVec::new();
+        let mut color = shade_hit(view, &first, hit, &mut pending, stats);
+        while let Some(p) = pending.pop() {
+            color += shade(view, &p, &mut pending, stats) * p.factor;
+        }
+        color
+    }
 }
 
 /// Index of refraction of the medium a ray is in: its innermost object's
@@ -189,11 +219,24 @@ fn shade<V: View, S: Stats>(
     stats: &mut S,
 ) -> V3<V::R> {
     let scene = view.scene();
-    let set = &scene.settings;
-    let ray = &p.ray;
-    let Some(found) = scene.intersect(&ray.value(), set.max_distance, stats) else {
+    let Some(found) = scene.intersect(&p.ray.value(), scene.settings.max_distance, stats) else {
         return view.background();
     };
+    shade_hit(view, p, found, pending, stats)
+}
+
+/// [`shade`] once the ray's hit `found` is known.
+#[inline]
+fn shade_hit<V: View, S: Stats>(
+    view: &V,
+    p: &Pending<V::R>,
+    found: Hit,
+    pending: &mut PendingStack<V::R>,
+    stats: &mut S,
+) -> V3<V::R> {
+    let scene = view.scene();
+    let set = &scene.settings;
+    let ray = &p.ray;
     let hit = view.surface(ray, found);
     let m = view.material(found.object);
     let n = hit.shading_normal;

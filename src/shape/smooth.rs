@@ -123,7 +123,7 @@ impl<R: Real> ShapeR<R> {
 
     /// The outward normal (unnormalised for none of the shapes: unit) at a
     /// point `p` on the surface, with the triangle's barycentrics `uv`.
-    fn outward_normal(&self, p: V3<R>) -> V3<R> {
+    pub fn outward_normal(&self, p: V3<R>) -> V3<R> {
         match *self {
             Self::Sphere { centre, radius } => ((p - centre) / radius).normalize(),
             Self::Ellipsoid { centre, to_unit } => to_unit

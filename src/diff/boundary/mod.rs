@@ -60,6 +60,14 @@
 //! placed on the film at the projection of its mirror image, and a sample
 //! counts where two rays find that the mirror shows the curve point.
 //!
+//! **In curved mirrors** ([`curved`]): a reflecting sphere or ellipsoid
+//! shows each film point along its own reflected ray, so the curves there
+//! (other smooth objects' silhouettes, planes' horizons, point lights'
+//! shadow edges cast by smooth objects) are level sets of functions of
+//! the film position, found on a quarter-pixel grid over the mirror's
+//! image and sampled with their normal speed from the implicit function
+//! theorem.
+//!
 //! **Why edge sampling.** raylab's primitives have exact silhouettes, and
 //! edge sampling turns each into a 1-D integral whose estimate is unbiased
 //! and whose cost is two radiance evaluations per sample, reported apart
@@ -81,34 +89,38 @@
 //! own material points.
 //!
 //! **Not covered** (left to the interior derivative, hence biased where
-//! they act): edges seen in curved mirrors (spheres, ellipsoids, meshes
-//! not in one plane), after a second reflection or through glass (the
-//! Whitted integrator's refracted rays), a plane's horizon seen in a
-//! mirror or from a path vertex, curves where surfaces pass through each
+//! they act): triangle meshes' edges and shadows seen in a curved mirror,
+//! anything seen in a mesh mirror not in one plane, after a second
+//! reflection or through glass (the Whitted integrator's refracted rays),
+//! a plane's horizon seen in a flat mirror or from a path vertex, the
+//! pieces of a curve in a curved mirror that its grid misses (within a
+//! grid cell of the mirror's rim), curves where surfaces pass through each
 //! other, and an edge that rests on another surface (a block on a floor):
 //! moved into that surface it moves nothing visible, while the term moves
 //! it with its jump (the derivative at a contact is one-sided).
 
 pub mod angles;
 pub mod area;
+pub mod curved;
 pub mod curves;
 pub mod mirror;
+mod sums;
 pub mod vertex;
 
 use super::params::{Entity, Param};
-use super::render::radiance;
 use super::view::DualScene;
 use crate::camera::Frame;
-use crate::integrator::{in_pool, IntegratorKind, SampleContext};
+use crate::integrator::{in_pool, IntegratorKind};
 use crate::math::{max_abs, Dual, Ray, RayR, Real, SplitMix64, Vec3, V3};
 use crate::scene::{Scene, View};
 use crate::shape::{Hit, HitR, Shape, ShapeR, OFFSET_SCALE};
 use crate::stats::NoStats;
+use curved::{curved_jobs, sample_curved};
 use curves::{edge_curve, edge_matters, horizon, mesh_edges, smooth_silhouette, Curve};
 use mirror::{mirrors, Mirror};
 use rayon::prelude::*;
-use std::collections::HashMap;
 use std::time::Instant;
+use sums::{grazing, jump, landed, offset, PixelResult, PixelSums};
 
 /// Distance in pixels from the curve at which f⁺ and f⁻ are evaluated:
 /// far enough above `f32` round-off of film positions (about 10⁻⁵ px) and
@@ -263,23 +275,13 @@ struct Job<const K: usize> {
     curve: Curve<Dual<K>>,
     light: Option<usize>,
     mirror: Option<Mirror<Dual<K>>>,
+    /// The sphere or ellipsoid whose silhouette the curve is.
+    smooth: Option<u32>,
     samples: u32,
 }
 
-/// One pixel's running sums over a curve's samples.
-struct Sums<const K: usize> {
-    s1: [[f64; 3]; K],
-    s2: [[f64; 3]; K],
-    g1: [f64; K],
-    g2: [f64; K],
-}
-
-/// What a curve adds: per touched pixel, per parameter the mean, the
-/// variance of the mean per channel and of the channel mean.
-type CurveResult<const K: usize> = (
-    Vec<(usize, [[f32; 3]; K], [[f32; 3]; K], [f32; K])>,
-    BoundaryStats,
-);
+/// What a curve adds ([`PixelResult`]), and the work it took.
+type CurveResult<const K: usize> = (PixelResult<K>, BoundaryStats);
 
 /// The boundary term for `params` (at most K, the parameters seeded in
 /// `view`) with `integrator`, drawing about `density` samples per pixel of
@@ -303,12 +305,21 @@ pub fn boundary_term<const K: usize>(
     let jobs = collect_curves(view, params, integrator, density, &mut out.stats);
     let seed = SplitMix64::mix(seed ^ 0xB0DA_7E55_ED6E_u64);
     let results: Vec<CurveResult<K>> = in_pool(threads, || {
-        jobs.par_iter()
+        let mut results: Vec<CurveResult<K>> = jobs
+            .par_iter()
             .enumerate()
             .map(|(j, job)| {
                 sample_curve(view, job, n, integrator, SplitMix64::mix(seed ^ j as u64))
             })
-            .collect()
+            .collect();
+        // Curves seen in curved mirrors, after the others (their seeds
+        // follow on).
+        let curved = curved_jobs(view, params, integrator, density, &mut out.stats);
+        results.par_extend(curved.par_iter().enumerate().map(|(j, job)| {
+            let seed = SplitMix64::mix(seed ^ (jobs.len() + j) as u64);
+            sample_curved(view, job, n, integrator, seed)
+        }));
+        results
     });
     for (pixels, stats) in results {
         out.stats.add(&stats);
@@ -348,15 +359,12 @@ fn collect_curves<const K: usize>(
         if l.whitted_only && !whitted {
             continue;
         }
-        let position = view.point_light(i).0;
-        let moves = position
-            .x
-            .d
-            .iter()
-            .chain(&position.y.d)
-            .chain(&position.z.d)
-            .any(|&d| d != 0.0);
-        viewpoints.push((Some(i), position, moves || camera || any_object));
+        let moves = light_moves(view, i);
+        viewpoints.push((
+            Some(i),
+            view.point_light(i).0,
+            moves || camera || any_object,
+        ));
     }
     let edges = mesh_edges(scene);
     let mirrors = if whitted { mirrors(view) } else { Vec::new() };
@@ -373,7 +381,7 @@ fn collect_curves<const K: usize>(
                 let smooth = matches!(p.shape, Shape::Sphere(_) | Shape::Ellipsoid(_));
                 if smooth && include(p.object) {
                     if let Some(c) = smooth_silhouette(&view.geometry(prim as u32), o) {
-                        curves.push(c);
+                        curves.push((c, Some(prim as u32)));
                     }
                 }
             }
@@ -389,7 +397,7 @@ fn collect_curves<const K: usize>(
                     let ends = [c.point(Dual::zero()), c.point(Dual::one())];
                     let own = |m: Mirror<Dual<K>>| ends.iter().all(|p| m.holds(p.value()));
                     if !(light.is_none() && mirror.is_some_and(own)) {
-                        curves.push(c);
+                        curves.push((c, None));
                     }
                 }
             }
@@ -400,11 +408,11 @@ fn collect_curves<const K: usize>(
                         continue;
                     }
                     if let ShapeR::Plane { normal, .. } = view.geometry(prim as u32) {
-                        curves.extend(horizon(view.frame(), normal));
+                        curves.extend(horizon(view.frame(), normal).map(|c| (c, None)));
                     }
                 }
             }
-            for curve in curves {
+            for (curve, smooth) in curves {
                 let length = film_length(view, &curve, light, mirror.as_ref(), stats);
                 let samples = (density * length).ceil().clamp(2.0, 1e7) as u32;
                 match light {
@@ -415,12 +423,20 @@ fn collect_curves<const K: usize>(
                     curve,
                     light,
                     mirror,
+                    smooth,
                     samples,
                 });
             }
         }
     }
     jobs
+}
+
+/// Whether point light `i` moves with the parameters.
+fn light_moves<const K: usize>(view: &DualScene<'_, K>, i: usize) -> bool {
+    let position = view.point_light(i).0;
+    let d = position.x.d.iter().chain(&position.y.d);
+    d.chain(&position.z.d).any(|&d| d != 0.0)
 }
 
 /// The ray from light position `l` through curve point `s`, continued past
@@ -538,6 +554,7 @@ fn sample_curve<const K: usize>(
     seed: u64,
 ) -> CurveResult<K> {
     let scene = view.scene();
+    let whitted = matches!(integrator, IntegratorKind::Whitted);
     let (w, h) = (scene.camera.width, scene.camera.height);
     let frame1: Frame<Dual<1>> = scene.camera.frame().lift();
     let curve1 = job.curve.map(|p| V3::<Dual<1>>::from_vec3(p.value()));
@@ -546,7 +563,7 @@ fn sample_curve<const K: usize>(
         ..Default::default()
     };
     let mut rng = SplitMix64(seed);
-    let mut sums: HashMap<usize, Sums<K>> = HashMap::new();
+    let mut sums = PixelSums::<K>::new(n);
     let light = job.light.map(|i| view.point_light(i).0);
     let mirror1 = job.mirror.map(|m| m.value::<Dual<1>>());
     let mirror0 = job.mirror.map(|m| m.value::<f32>());
@@ -610,60 +627,39 @@ fn sample_curve<const K: usize>(
         if speed.iter().all(|&v| v == 0.0) {
             continue;
         }
-        stats.landed += 1;
-        stats.evaluations += 2;
-        let (px, py) = (x.v as u32, y.v as u32);
-        let ctx = SampleContext {
-            px,
-            py,
-            index,
-            seed,
-        };
-        let (ox, oy) = (OFFSET_PX * normal.0 / len, OFFSET_PX * normal.1 / len);
-        let f = |sign: f32| {
-            let ray = scene.camera_ray(x.v + sign * ox, y.v + sign * oy);
-            radiance(scene, integrator, &ray, &ctx)
-        };
-        let (plus, minus) = (f(1.0), f(-1.0));
-        let jump = [minus.x - plus.x, minus.y - plus.y, minus.z - plus.z].map(f64::from);
-        let e = sums.entry((py * w + px) as usize).or_insert(Sums {
-            s1: [[0.0; 3]; K],
-            s2: [[0.0; 3]; K],
-            g1: [0.0; K],
-            g2: [0.0; K],
-        });
-        for (k, &v) in speed.iter().enumerate() {
-            let v = f64::from(v);
-            for (c, &j) in jump.iter().enumerate() {
-                let g = j * v;
-                e.s1[k][c] += g;
-                e.s2[k][c] += g * g;
+        let (pixel, ctx) = landed(&mut stats, (x.v, y.v), w, index, seed);
+        // A reflecting or refracting sphere's silhouette seen directly
+        // (under Whitted): the colour inside is taken in its limit.
+        let mut limit = None;
+        if let (Some(prim), None, None, true) = (job.smooth, job.light, job.mirror, whitted) {
+            let m = View::material(scene, scene.prims[prim as usize].object);
+            if m.reflectivity > 0.0 || m.transparency > 0.0 {
+                let Some(c) = grazing(scene, prim, s.value()) else {
+                    continue;
+                };
+                let centre = match job.curve {
+                    Curve::Ellipse { centre, .. } => centre.value(),
+                    Curve::Segment { p0, .. } => p0.value(),
+                };
+                let side = scene
+                    .camera
+                    .frame()
+                    .project(V3::<f32>::from_vec3(centre), w, h);
+                let inward = side.map_or(0.0, |(cx, cy)| {
+                    (cx - x.v) * normal.0 + (cy - y.v) * normal.1
+                });
+                limit = Some((if inward > 0.0 { 1.0 } else { -1.0 }, c));
             }
-            let g = (jump[0] + jump[1] + jump[2]) / 3.0 * v;
-            e.g1[k] += g;
-            e.g2[k] += g * g;
         }
+        let jump = jump(
+            scene,
+            integrator,
+            (x.v, y.v),
+            offset(normal, len),
+            &ctx,
+            limit,
+        );
+        sums.add(pixel, jump, &speed);
     }
-    // The pixel's estimate is the mean over all the curve's samples (those
-    // that landed elsewhere count as 0), its variance that of a mean.
-    let m = f64::from(job.samples);
-    let var = |s1: f64, s2: f64| ((s2 - s1 * s1 / m) / (m * (m - 1.0))).max(0.0) as f32;
-    let mut pixels: Vec<_> = sums
-        .into_iter()
-        .map(|(pixel, e)| {
-            let mut mean = [[0.0f32; 3]; K];
-            let mut variance = [[0.0f32; 3]; K];
-            let mut grey = [0.0f32; K];
-            for k in 0..n {
-                for c in 0..3 {
-                    mean[k][c] = (e.s1[k][c] / m) as f32;
-                    variance[k][c] = var(e.s1[k][c], e.s2[k][c]);
-                }
-                grey[k] = var(e.g1[k], e.g2[k]);
-            }
-            (pixel, mean, variance, grey)
-        })
-        .collect();
-    pixels.sort_unstable_by_key(|p| p.0);
-    (pixels, stats)
+    (sums.finish(job.samples), stats)
 }
