@@ -627,7 +627,6 @@ fn sample_curve<const K: usize>(
         if speed.iter().all(|&v| v == 0.0) {
             continue;
         }
-        let (pixel, ctx) = landed(&mut stats, (x.v, y.v), w, index, seed);
         // A reflecting or refracting sphere's silhouette seen directly
         // (under Whitted): the colour inside is taken in its limit.
         let mut limit = None;
@@ -651,6 +650,7 @@ fn sample_curve<const K: usize>(
                 limit = Some((if inward > 0.0 { 1.0 } else { -1.0 }, c));
             }
         }
+        let (pixel, ctx) = landed(&mut stats, (x.v, y.v), w, index, seed);
         let jump = jump(
             scene,
             integrator,
