@@ -53,9 +53,9 @@ enum Command {
     /// geometry (positions, radii, transforms, the camera, light
     /// positions). By default (`--visibility full`) the boundary term is
     /// added: edge sampling of the silhouettes, horizons and shadow edges
-    /// the camera sees (under Whitted, in flat and curved mirrors too) and,
+    /// the camera sees (under Whitted, in mirrors and through glass too) and,
     /// under `direct` and `path:K`, those every path vertex sees. Not
-    /// covered: edges seen through glass, meshes in a curved mirror.
+    /// covered: meshes seen in curved mirrors or through glass.
     /// `--check fd` measures the difference against central finite
     /// differences.
     Grad(GradArgs),

@@ -60,13 +60,14 @@
 //! placed on the film at the projection of its mirror image, and a sample
 //! counts where two rays find that the mirror shows the curve point.
 //!
-//! **In curved mirrors** ([`curved`]): a reflecting sphere or ellipsoid
-//! shows each film point along its own reflected ray, so the curves there
-//! (other smooth objects' silhouettes, planes' horizons, point lights'
-//! shadow edges cast by smooth objects) are level sets of functions of
-//! the film position, found on a quarter-pixel grid over the mirror's
-//! image and sampled with their normal speed from the implicit function
-//! theorem.
+//! **In curved mirrors and through glass** ([`curved`]): a reflecting
+//! sphere or ellipsoid shows each film point along its own reflected ray,
+//! and a glass one along its own refracted one (straight through, or
+//! after reflections inside), so the curves there (other smooth objects'
+//! silhouettes, planes' horizons, point lights' shadow edges cast by
+//! smooth objects) are level sets of functions of the film position,
+//! found on a quarter-pixel grid over the object's image and sampled with
+//! their normal speed from the implicit function theorem.
 //!
 //! **Why edge sampling.** raylab's primitives have exact silhouettes, and
 //! edge sampling turns each into a 1-D integral whose estimate is unbiased
@@ -89,9 +90,10 @@
 //! own material points.
 //!
 //! **Not covered** (left to the interior derivative, hence biased where
-//! they act): triangle meshes' edges and shadows seen in a curved mirror,
-//! anything seen in a mesh mirror not in one plane, after a second
-//! reflection or through glass (the Whitted integrator's refracted rays),
+//! they act): triangle meshes' edges and shadows seen in a curved mirror
+//! or through glass, anything seen in a mesh mirror not in one plane,
+//! after a second reflection, or through glass that is not a sphere or an
+//! ellipsoid,
 //! a plane's horizon seen in a flat mirror or from a path vertex, the
 //! pieces of a curve in a curved mirror that its grid misses (within a
 //! grid cell of the mirror's rim), curves where surfaces pass through each
@@ -258,13 +260,15 @@ impl Boundary {
 }
 
 /// Whether `p` can move a silhouette or a shadow edge (a plane moves the
-/// shadows that fall on it).
+/// shadows that fall on it; an index of refraction, the edges seen
+/// through glass).
 pub fn is_geometric(p: &Param) -> bool {
     match p.entity {
         Entity::Sphere(_) | Entity::Ellipsoid(_) | Entity::Triangle(_) | Entity::Mesh(_) => true,
         Entity::Camera | Entity::Plane(_) => true,
         Entity::Light(_) => p.field == "position",
-        Entity::Render | Entity::Material(_) => false,
+        Entity::Material(_) => p.field == "ior",
+        Entity::Render => false,
     }
 }
 

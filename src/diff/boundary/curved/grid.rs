@@ -1,11 +1,11 @@
 //! Finding a curve seen in a curved mirror: the grid over the part of the
 //! mirror the eye sees and marching squares on it (see [`super`]).
 
-use super::{trace, Disc, Setup, Target, Trace, BISECTIONS, MAX_CELLS, STEP_PX};
+use super::{trace, Disc, Setup, Target, Trace, Via, BISECTIONS, MAX_CELLS, STEP_PX};
 use crate::camera::Frame;
 use crate::diff::boundary::BoundaryStats;
 use crate::math::{Real, M3, V3};
-use crate::scene::Scene;
+use crate::scene::{Scene, View};
 use crate::shape::{Shape, ShapeR};
 use glam::{Mat3, Vec2, Vec3};
 use rayon::prelude::*;
@@ -14,7 +14,7 @@ use rayon::prelude::*;
 /// unit-sphere space (a sphere's scaled by 1/r, an ellipsoid's by its
 /// `to_unit`) the eye is at e′, and the visible cap is the points
 /// √(1 − X² − Y²)·w + X·u + Y·v with X² + Y² < `reach`² = 1 − 1/|e′|²,
-/// w = e′/|e′| and (u, v) completing a basis. The reflected rays are
+/// w = e′/|e′| and (u, v) completing a basis. The rays leaving it are
 /// smooth functions of (X, Y) up to the mirror's rim, where they are not
 /// of the film position (the film squeezes the rim's neighbourhood), so
 /// the grid is laid out in (X, Y).
@@ -84,9 +84,15 @@ pub(super) struct Grid {
 }
 
 impl Grid {
-    /// The grid over `mirror`'s disc; `None` where the eye is inside the
-    /// mirror or part of its rim is behind the eye.
-    pub(super) fn over(scene: &Scene, mirror: u32, stats: &mut BoundaryStats) -> Option<Self> {
+    /// The grid over `mirror`'s disc, for the rays that leave it `via`;
+    /// `None` where the eye is inside the mirror or part of its rim is
+    /// behind the eye.
+    pub(super) fn over(
+        scene: &Scene,
+        mirror: u32,
+        via: Via,
+        stats: &mut BoundaryStats,
+    ) -> Option<Self> {
         let cap = Cap::of(scene, mirror)?;
         let size = (scene.camera.width, scene.camera.height);
         let frame = scene.camera.frame();
@@ -110,14 +116,15 @@ impl Grid {
                 (0..=cells).map(move |i| {
                     let p = origin + Vec2::new(i as f32, j as f32) * step;
                     let (x, y) = cap.film(&frame, size, (p.x, p.y))?;
-                    Some((Vec2::new(x, y), trace(scene, (x, y), mirror)?))
+                    Some((Vec2::new(x, y), trace(scene, (x, y), mirror, via)?))
                 })
             })
             .collect();
-        stats.light_rays += 2 * points.iter().flatten().count() as u64;
+        stats.light_rays += via.rays() * points.iter().flatten().count() as u64;
         Some(Self {
             disc: Disc {
                 mirror,
+                via,
                 size,
                 cap,
                 step,
@@ -141,13 +148,14 @@ impl Grid {
             size: self.disc.size,
             geometry: |p: u32| ShapeR::of(&scene.prims[p as usize]),
             light: |i: usize| V3::from_vec3(scene.lights[i].position),
+            ior: View::material(scene, scene.prims[self.disc.mirror as usize].object).ior,
         };
         let mut rays = 0u64;
         let mut at = |p: Vec2| {
             let (x, y) = self.disc.cap.film(&frame, self.disc.size, (p.x, p.y))?;
-            rays += 2;
-            let t = trace(scene, (x, y), self.disc.mirror)?;
-            setup.phi((x, y), self.disc.mirror, target, &t)
+            rays += self.disc.via.rays();
+            let t = trace(scene, (x, y), self.disc.mirror, self.disc.via)?;
+            setup.phi((x, y), &self.disc, target, &t)
         };
         let n = self.cells;
         let values: Vec<Option<f32>> = self
@@ -155,7 +163,7 @@ impl Grid {
             .iter()
             .map(|p| {
                 let (x, t) = (*p)?;
-                setup.phi((x.x, x.y), self.disc.mirror, target, &t)
+                setup.phi((x.x, x.y), &self.disc, target, &t)
             })
             .collect();
         let value = |i: usize, j: usize| values[j * (n + 1) + i];
@@ -176,7 +184,7 @@ impl Grid {
                     hi = (mid, f);
                 }
             }
-            // A zero, not a jump of φ (where the reflected ray's receiver
+            // A zero, not a jump of φ (where the leaving ray's receiver
             // changes, say): the bracket's values have shrunk with it.
             let zero = lo.1.abs() + hi.1.abs() <= 1e-3 * (fa.abs() + fb.abs());
             zero.then(|| a + (b - a) * (0.5 * (lo.0 + hi.0)))

@@ -1,21 +1,28 @@
-//! Edges seen in curved mirrors: what the Whitted integrator's reflected
-//! rays find when the reflecting surface is a sphere or an ellipsoid.
+//! Edges seen in curved mirrors and through glass: what the Whitted
+//! integrator's reflected and refracted rays find when the surface that
+//! sends them on is a sphere or an ellipsoid.
 //!
 //! A flat mirror shows the scene from one point, the eye's mirror image
 //! ([`super::mirror`]), so each 3-D curve has one image. A curved mirror
 //! does not: film point x sees along its own reflected ray, from o(x) on
 //! the mirror in direction d(x), and the film curves along which the
-//! reflection changes are level sets, not projections. For each thing
-//! that makes an edge there, φ(x, θ) is a function that changes sign
-//! exactly across it:
+//! reflection changes are level sets, not projections. A glass sphere or
+//! ellipsoid is the same with other (o(x), d(x)): the camera ray
+//! refracted in at the near side and out where it meets the far side, or
+//! reflected there once or twice first (`Via::Refraction`, each chain a
+//! curve family of its own, followed while the renderer traces it; the
+//! object is taken to sit in air, and where the ray would leave by total
+//! internal reflection that chain has no ray). Below, "mirror" is either.
+//! For each thing that makes an edge there, φ(x, θ) is a function that
+//! changes sign exactly across it:
 //!
 //! - a sphere's or an ellipsoid's silhouette: the distance from the line
 //!   o + λd to the centre less the radius (in the ellipsoid's unit-sphere
 //!   space), where the closest approach lies ahead (λ > 0);
 //! - a plane's horizon: d·n, signed by the side of the plane o lies on;
 //! - a point light's shadow edge cast by a sphere or an ellipsoid: the
-//!   same distance for the shadow ray from the point the reflected ray
-//!   meets (from its origin ε off the surface, as the renderer's shadow
+//!   same distance for the shadow ray from the point the ray leaving the
+//!   mirror meets (from its origin ε off the surface, as the renderer's shadow
 //!   rays start), where the closest approach lies between it and the
 //!   light.
 //!
@@ -24,9 +31,9 @@
 //! and what lies behind the mirror crowds into a thin ring. On the mirror
 //! itself they change smoothly up to the rim. So the curve is found on a
 //! grid over the visible part of the mirror, as a disc (X, Y) (`grid::Cap`),
-//! with cells about [`STEP_PX`] pixels wide on the film at its centre (one
-//! camera ray and one reflected ray per grid point, shared by all the
-//! mirror's curves). Where φ changes sign along a cell side, bisection
+//! with cells about [`STEP_PX`] pixels wide on the film at its centre (the
+//! camera ray and the rays on from the mirror, `Via::rays`, per grid
+//! point, shared by all the mirror's curves). Where φ changes sign along a cell side, bisection
 //! places the crossing (marching squares; a saddle is resolved by φ at
 //! the cell's centre), and each cell crossed gives a chord [a, b] on the
 //! disc whose ends lie on the curve, shared with the neighbouring cells'
@@ -45,16 +52,18 @@
 //! n = ∇ₓφ / |∇ₓφ| (∇ₓφ = J⁻ᵀ∇φ) and the curve's normal speed from the
 //! implicit function, ∂x/∂θ·n = −(∂φ/∂θ) / |∇ₓφ|, where ∂φ/∂θ comes from
 //! the K-wide duals of the [`DualScene`] at fixed film position (the
-//! mirror, the camera, the objects and the lights all move it). f± are
-//! the integrator's, at x ± ε·n.
+//! mirror, the camera, the objects, the lights and the glass's index of
+//! refraction all move it). f± are the integrator's, at x ± ε·n.
 //!
 //! **What it misses.** Pieces of a curve the grid does not see: a closed
 //! loop inside one cell, and arcs in the cells on the disc's edge, whose
 //! corners do not all see the mirror (a sliver of the rim, small on the
 //! film because the film squeezes it). Not covered at all: triangle
-//! meshes' edges and shadows seen in a curved mirror, a curved mirror
-//! seen in another mirror, glass's refracted rays, and a mirror that
-//! touches what it reflects (contact, as for every curve).
+//! meshes' edges and shadows seen in a curved mirror or through glass, a
+//! curved mirror seen in another mirror, the rays reflected inside glass
+//! (each further bounce is another chain), glass that is not a sphere or
+//! an ellipsoid, and a mirror that touches what it reflects (contact, as
+//! for every curve).
 
 mod grid;
 
@@ -66,7 +75,7 @@ use crate::diff::view::DualScene;
 use crate::integrator::IntegratorKind;
 use crate::math::{Dual, Ray, RayR, Real, SplitMix64, V3};
 use crate::scene::{Scene, View};
-use crate::shading::reflect;
+use crate::shading::{reflect, refract};
 use crate::shape::{Hit, HitR, Shape, ShapeR};
 use crate::stats::NoStats;
 use glam::Vec2;
@@ -109,45 +118,104 @@ pub struct CurvedJob {
     pub samples: u32,
 }
 
-/// What the camera ray through a film point meets: the mirror (first),
-/// and what the reflected ray meets next.
+/// How the rays a curve is seen by leave the mirror: reflected off it, or
+/// refracted through it (in at the near side, reflected `inside` times
+/// off the inside, and out).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Via {
+    Reflection,
+    Refraction { inside: usize },
+}
+
+impl Via {
+    /// Rays cast to trace one film point this way: the camera ray, one
+    /// per segment inside, and the ray that leaves.
+    fn rays(self) -> u64 {
+        match self {
+            Via::Reflection => 2,
+            Via::Refraction { inside } => inside as u64 + 3,
+        }
+    }
+}
+
+/// The most reflections inside glass followed (weights fall as
+/// reflectivity^k; S1's glass, 0.08, is below the renderer's 10⁻³
+/// cut-off at k = 3).
+const MAX_INSIDE: usize = 2;
+
+/// What the camera ray through a film point meets: the mirror (first,
+/// `hits[0]`), where a refracted ray meets it from inside (`hits[1..]`,
+/// the last where it leaves), and what the ray leaving the mirror meets
+/// next.
 #[derive(Clone, Copy)]
 struct Trace {
-    mirror: Hit,
+    hits: [Option<Hit>; MAX_INSIDE + 2],
     next: Option<Hit>,
 }
 
-/// The reflected ray (origin, unit direction) of the camera ray through
-/// film point `(x, y)` off `mirror` at its hit `hit`: the Whitted
-/// integrator's reflection and spawn rule, as functions of the frame,
-/// the film point and the mirror's geometry.
-fn reflected<R: Real>(
+/// The ray (origin, unit direction) that leaves `mirror` (of index `ior`,
+/// in air) `via` one way for the camera ray through film point `(x, y)`,
+/// whose `i`-th meeting with the mirror along the way is `hit(i, ray)`:
+/// the Whitted integrator's reflection, refraction and spawn rules, as
+/// functions of the frame, the film point, the mirror's geometry and the
+/// index. `None` where a hit is missing or a refracted ray is totally
+/// reflected.
+fn leaving<R: Real>(
     frame: &Frame<R>,
     (w, h): (u32, u32),
     (x, y): (R, R),
-    mirror: &ShapeR<R>,
-    hit: Hit,
-) -> (V3<R>, V3<R>) {
+    (mirror, ior): (&ShapeR<R>, R),
+    via: Via,
+    mut hit: impl FnMut(usize, &RayR<R>) -> Option<Hit>,
+) -> Option<(V3<R>, V3<R>)> {
     let ray = frame.ray_at(x, y, w, h);
-    let on = HitR::on(mirror, None, &ray, hit);
-    let d = reflect(ray.dir, on.shading_normal).normalize();
-    (on.spawn_origin(d), d)
+    let mut on = HitR::on(mirror, None, &ray, hit(0, &ray)?);
+    let Via::Refraction { inside } = via else {
+        let d = reflect(ray.dir, on.shading_normal).normalize();
+        return Some((on.spawn_origin(d), d));
+    };
+    let mut d = refract(-ray.dir, on.shading_normal, R::one() / ior)?.normalize();
+    for i in 1..=inside + 1 {
+        let ray = RayR::new(on.spawn_origin(d), d);
+        on = HitR::on(mirror, None, &ray, hit(i, &ray)?);
+        d = if i <= inside {
+            reflect(d, on.shading_normal).normalize()
+        } else {
+            refract(-d, on.shading_normal, ior)?.normalize()
+        };
+    }
+    Some((on.spawn_origin(d), d))
 }
 
-/// Where the camera ray through `(x, y)` meets `mirror` first and where
-/// its reflection goes; `None` where it meets something else first.
-fn trace(scene: &Scene, (x, y): (f32, f32), mirror: u32) -> Option<Trace> {
+/// Where the camera ray through `(x, y)` meets `mirror` first, and the
+/// ray leaving it `via` meets next; `None` where the camera ray meets
+/// something else first, or a ray inside meets something but the mirror.
+fn trace(scene: &Scene, (x, y): (f32, f32), mirror: u32, via: Via) -> Option<Trace> {
     let max = scene.settings.max_distance;
-    let hit = scene.intersect(&scene.camera_ray(x, y).value(), max, &mut NoStats)?;
-    if hit.prim != mirror || !hit.front_face {
-        return None;
-    }
-    let shape = ShapeR::of(&scene.prims[mirror as usize]);
-    let frame = scene.camera.frame();
+    let prim = &scene.prims[mirror as usize];
+    let ior = View::material(scene, prim.object).ior;
+    let mut found = Trace {
+        hits: [None; MAX_INSIDE + 2],
+        next: None,
+    };
     let size = (scene.camera.width, scene.camera.height);
-    let (o, d) = reflected(&frame, size, (x, y), &shape, hit);
-    let next = scene.intersect(&Ray::new(o.value(), d.value()), max, &mut NoStats);
-    Some(Trace { mirror: hit, next })
+    let mirror_ = (&ShapeR::of(prim), ior);
+    let (o, d) = leaving(
+        &scene.camera.frame(),
+        size,
+        (x, y),
+        mirror_,
+        via,
+        |i, ray| {
+            let hit = scene.intersect(&ray.value(), max, &mut NoStats)?;
+            // The first from outside, the others from inside.
+            let ok = hit.prim == mirror && hit.front_face == (i == 0);
+            found.hits[i] = ok.then_some(hit);
+            found.hits[i]
+        },
+    )?;
+    found.next = scene.intersect(&Ray::new(o.value(), d.value()), max, &mut NoStats);
+    Some(found)
 }
 
 /// How far the line o + λd passes outside `shape` (a sphere, or an
@@ -164,20 +232,25 @@ fn gap<R: Real>(o: V3<R>, d: V3<R>, shape: &ShapeR<R>) -> Option<(R, R)> {
     Some((f.cross(d).length() / dd.sqrt() - r, -f.dot(d) / dd))
 }
 
-/// The geometry φ is a function of, on one number type.
+/// The geometry φ is a function of, on one number type, with the
+/// mirror's index of refraction.
 struct Setup<'a, R, G, L> {
     frame: &'a Frame<R>,
     size: (u32, u32),
     geometry: G,
     light: L,
+    ior: R,
 }
 
 impl<R: Real, G: Fn(u32) -> ShapeR<R>, L: Fn(usize) -> V3<R>> Setup<'_, R, G, L> {
-    /// φ of `target` in `mirror` at film point `(x, y)`, whose rays are
-    /// `trace` (see the module docs); `None` where it makes no edge.
-    fn phi(&self, (x, y): (R, R), mirror: u32, target: Target, trace: &Trace) -> Option<R> {
-        let shape = (self.geometry)(mirror);
-        let (o, d) = reflected(self.frame, self.size, (x, y), &shape, trace.mirror);
+    /// φ of `target` in `disc`'s mirror at film point `(x, y)`, whose
+    /// rays are `trace` (see the module docs); `None` where it makes no
+    /// edge.
+    fn phi(&self, (x, y): (R, R), disc: &Disc, target: Target, trace: &Trace) -> Option<R> {
+        let shape = (self.geometry)(disc.mirror);
+        let mirror = (&shape, self.ior);
+        let hits = |i: usize, _: &RayR<R>| trace.hits[i];
+        let (o, d) = leaving(self.frame, self.size, (x, y), mirror, disc.via, hits)?;
         match target {
             Target::Silhouette(prim) => {
                 let (gap, along) = gap(o, d, &(self.geometry)(prim))?;
@@ -212,11 +285,13 @@ impl<R: Real, G: Fn(u32) -> ShapeR<R>, L: Fn(usize) -> V3<R>> Setup<'_, R, G, L>
     }
 }
 
-/// A mirror's disc ([`Cap`]) on a film of `size` pixels, and its grid's
-/// step there (about [`STEP_PX`] on the film at the disc's centre).
+/// A mirror's disc ([`Cap`]) on a film of `size` pixels, how the rays
+/// leave the mirror, and its grid's step there (about [`STEP_PX`] on the
+/// film at the disc's centre).
 #[derive(Clone, Copy)]
 struct Disc {
     mirror: u32,
+    via: Via,
     size: (u32, u32),
     cap: Cap,
     step: f32,
@@ -258,15 +333,16 @@ fn local(
     let size = (scene.camera.width, scene.camera.height);
     let xy = (Dual::variable(p.x, 0), Dual::variable(p.y, 1));
     let (fx, fy) = grid.cap.film(&frame, size, xy)?;
-    stats.light_rays += 2;
-    let trace = trace(scene, (fx.v, fy.v), grid.mirror)?;
+    stats.light_rays += grid.via.rays();
+    let trace = trace(scene, (fx.v, fy.v), grid.mirror, grid.via)?;
     let setup = Setup {
         frame: &frame,
         size,
         geometry: |p: u32| ShapeR::of(&scene.prims[p as usize]),
         light: |i: usize| V3::from_vec3(scene.lights[i].position),
+        ior: Dual::from_f32(View::material(scene, trace.hits[0]?.object).ior),
     };
-    let v = setup.phi((fx, fy), grid.mirror, target, &trace)?;
+    let v = setup.phi((fx, fy), grid, target, &trace)?;
     Some(Local {
         value: v.v,
         grad: Vec2::new(v.d[0], v.d[1]),
@@ -307,11 +383,12 @@ fn onto_curve(
     None
 }
 
-/// The curved mirrors' curves that can move on the film for these
-/// parameters, under Whitted: per sphere or ellipsoid that reflects, the
-/// other smooth objects' silhouettes, the planes' horizons and the smooth
-/// objects' shadow edges from each point light, found on the mirror's
-/// grid; each with about `density` samples per pixel of length.
+/// The curves seen in curved mirrors and through glass that can move on
+/// the film for these parameters, under Whitted: per sphere or ellipsoid
+/// that reflects, and again per one that transmits, the other smooth
+/// objects' silhouettes, the planes' horizons and the smooth objects'
+/// shadow edges from each point light, found on the mirror's grid; each
+/// with about `density` samples per pixel of length.
 pub fn curved_jobs<const K: usize>(
     view: &DualScene<'_, K>,
     params: &[Param],
@@ -335,10 +412,15 @@ pub fn curved_jobs<const K: usize>(
     let planes = prims(|s| matches!(s, Shape::Plane(_)));
     let mut jobs = Vec::new();
     for &mirror in &smooth {
-        if view.material(object(mirror)).reflectivity.value() <= 0.0 {
+        let m = view.material(object(mirror));
+        let vias = ways_out(scene, m.reflectivity.value(), m.transparency.value());
+        if vias.is_empty() {
             continue;
         }
-        let all = camera || view.moves(object(mirror));
+        // The index bends what the glass shows; a mirror's does nothing.
+        let refracts = m.transparency.value() > 0.0;
+        let ior_moves = refracts && m.ior.d.iter().any(|&d| d != 0.0);
+        let all = camera || ior_moves || view.moves(object(mirror));
         let mut targets = Vec::new();
         for &s in &smooth {
             if s != mirror && (all || view.moves(object(s))) {
@@ -360,48 +442,85 @@ pub fn curved_jobs<const K: usize>(
         if targets.is_empty() {
             continue;
         }
-        let Some(grid) = Grid::over(scene, mirror, stats) else {
-            continue;
-        };
-        let grid = &grid;
-        let found: Vec<(Vec<[Vec2; 2]>, u64)> = targets
-            .par_iter()
-            .map(|&target| grid.chords(scene, target))
-            .collect();
-        for (target, (chords, rays)) in targets.into_iter().zip(found) {
-            stats.light_rays += rays;
-            if chords.is_empty() {
-                continue;
-            }
-            // Samples by the chords' film length (measured on their ends).
-            let frame = scene.camera.frame();
-            let film = |p: Vec2| grid.disc.cap.film(&frame, grid.disc.size, (p.x, p.y));
-            let on_film: f32 = chords
-                .iter()
-                .filter_map(|[a, b]| Some((film(*a)?.0 - film(*b)?.0, film(*a)?.1 - film(*b)?.1)))
-                .map(|(dx, dy)| dx.hypot(dy))
-                .sum();
-            let ends: Vec<f32> = chords
-                .iter()
-                .scan(0.0f32, |sum, [a, b]| {
-                    *sum += (*b - *a).length();
-                    Some(*sum)
-                })
-                .collect();
-            match target {
-                Target::Shadow { .. } => stats.shadow_curves += 1,
-                _ => stats.primary_curves += 1,
-            }
-            jobs.push(CurvedJob {
-                disc: grid.disc,
-                target,
-                chords,
-                ends,
-                samples: (density * on_film).ceil().clamp(2.0, 1e7) as u32,
-            });
+        for &via in &vias {
+            mirror_jobs(scene, (mirror, via), &targets, density, stats, &mut jobs);
         }
     }
     jobs
+}
+
+/// The ways out of a mirror of `reflectivity` and `transparency` whose
+/// rays the renderer traces (their weight, the product of the factors on
+/// the way, at least its cut-off, within its depth). Total internal
+/// reflection, which adds the transparency to the reflectivity, is not
+/// foreseen here: where it happens, the chain through is cut.
+fn ways_out(scene: &Scene, reflectivity: f32, transparency: f32) -> Vec<Via> {
+    let set = &scene.settings;
+    let traced = |weight: f32, depth: usize| {
+        weight > 0.0 && weight >= set.min_weight && depth < set.max_depth as usize
+    };
+    let mut ways = Vec::new();
+    if traced(reflectivity, 1) {
+        ways.push(Via::Reflection);
+    }
+    for inside in 0..=MAX_INSIDE {
+        let weight = transparency * transparency * reflectivity.powi(inside as i32);
+        if traced(weight, inside + 2) {
+            ways.push(Via::Refraction { inside });
+        }
+    }
+    ways
+}
+
+/// The jobs of `targets` seen in `mirror` `via` one way, pushed on `jobs`.
+fn mirror_jobs(
+    scene: &Scene,
+    (mirror, via): (u32, Via),
+    targets: &[Target],
+    density: f32,
+    stats: &mut BoundaryStats,
+    jobs: &mut Vec<CurvedJob>,
+) {
+    let Some(grid) = Grid::over(scene, mirror, via, stats) else {
+        return;
+    };
+    let grid = &grid;
+    let found: Vec<(Vec<[Vec2; 2]>, u64)> = targets
+        .par_iter()
+        .map(|&target| grid.chords(scene, target))
+        .collect();
+    for (&target, (chords, rays)) in targets.iter().zip(found) {
+        stats.light_rays += rays;
+        if chords.is_empty() {
+            continue;
+        }
+        // Samples by the chords' film length (measured on their ends).
+        let frame = scene.camera.frame();
+        let film = |p: Vec2| grid.disc.cap.film(&frame, grid.disc.size, (p.x, p.y));
+        let on_film: f32 = chords
+            .iter()
+            .filter_map(|[a, b]| Some((film(*a)?.0 - film(*b)?.0, film(*a)?.1 - film(*b)?.1)))
+            .map(|(dx, dy)| dx.hypot(dy))
+            .sum();
+        let ends: Vec<f32> = chords
+            .iter()
+            .scan(0.0f32, |sum, [a, b]| {
+                *sum += (*b - *a).length();
+                Some(*sum)
+            })
+            .collect();
+        match target {
+            Target::Shadow { .. } => stats.shadow_curves += 1,
+            _ => stats.primary_curves += 1,
+        }
+        jobs.push(CurvedJob {
+            disc: grid.disc,
+            target,
+            chords,
+            ends,
+            samples: (density * on_film).ceil().clamp(2.0, 1e7) as u32,
+        });
+    }
 }
 
 /// Draw `job.samples` points on a curve seen in a curved mirror and
@@ -416,17 +535,18 @@ pub fn sample_curved<const K: usize>(
 ) -> (PixelResult<K>, BoundaryStats) {
     let scene = view.scene();
     let (w, h) = (scene.camera.width, scene.camera.height);
+    let grid = &job.disc;
     let setup = Setup {
         frame: view.frame(),
         size: (w, h),
         geometry: |p: u32| view.geometry(p),
         light: |i: usize| view.point_light(i).0,
+        ior: view.material(scene.prims[grid.mirror as usize].object).ior,
     };
     let mut stats = BoundaryStats {
         samples: u64::from(job.samples),
         ..Default::default()
     };
-    let grid = &job.disc;
     let total = job.ends.last().copied().unwrap_or(0.0);
     let mut rng = SplitMix64(seed);
     let mut sums = PixelSums::<K>::new(n);
@@ -448,7 +568,7 @@ pub fn sample_curved<const K: usize>(
             continue;
         }
         let film = (Dual::from_f32(x.x), Dual::from_f32(x.y));
-        let Some(phi) = setup.phi(film, grid.mirror, job.target, &at.trace) else {
+        let Some(phi) = setup.phi(film, grid, job.target, &at.trace) else {
             continue;
         };
         // dx/du on the film, over the chord's share of all the chords.
