@@ -590,30 +590,18 @@ fn cornell_checks(integrator: &str, names: &[&str], text: &str) {
 /// derivative over the parameter's interval: (I(θ + h) − I(θ − h)) / 2h =
 /// (1/2h) ∫ I′(φ) dφ over [θ − h, θ + h], for each pixel, edges crossing
 /// its borders included. So the reference ([`reference`]) is compared
-/// with the mean of 16 derivative renders at φ drawn one in each sixteenth
-/// of that interval (16 random samples per pixel each, seeds apart), and
-/// both estimate the same number whatever the step: no edge near a pixel
-/// border biases a pixel, so the step can be large enough for a
-/// low-noise reference even for parameters that move edges slowly (the
-/// camera's aim and field of view, rotations). The derivative's standard
-/// error is the spread over the 16 renders, which also holds the
+/// with the mean of `RENDERS` (64) derivative renders at φ drawn one in
+/// each 64th of that interval (4 random samples per pixel each, seeds
+/// apart), and both estimate the same number whatever the step: no edge
+/// near a pixel border biases a pixel, so the step can be large enough
+/// for a low-noise reference even for parameters that move edges slowly
+/// (the camera's aim and field of view, rotations). The derivative's
+/// standard error is the spread over the renders, which also holds the
 /// variation over φ, so it is conservative where an edge enters a pixel
 /// within the interval. Each `(name, h)` is checked alone, `size` ×
 /// `size` pixels: with `full` ≥ 99 % of pixels pass [`judge`] and the
 /// image mean's |z| < 4; with `interior` fewer than 97 % pass.
 fn averaged_checks(path: &Path, text: &str, integrator: &str, names: &[(&str, f32)], size: u32) {
-    averaged_checks_to(path, text, integrator, names, size, 0.99);
-}
-
-/// [`averaged_checks`] with `share` in place of its 99 %.
-fn averaged_checks_to(
-    path: &Path,
-    text: &str,
-    integrator: &str,
-    names: &[(&str, f32)],
-    size: u32,
-    share: f64,
-) {
     const RENDERS: u32 = 64;
     let file: SceneFile = toml::from_str(text).unwrap();
     let integrator = IntegratorKind::parse(integrator).unwrap();
@@ -643,7 +631,7 @@ fn averaged_checks_to(
             "{name}, h = {h}: pixels within 4 SE: full {sf:.4}, interior {si:.4}; \
              image mean z: full {zf:.2}, interior {zi:.1}"
         );
-        assert!(sf >= share, "{name}: full, share {sf}");
+        assert!(sf >= 0.99, "{name}: full, share {sf}");
         assert!(zf.abs() < 4.0, "{name}: full, z = {zf}");
         assert!(si < 0.97, "{name}: interior, share {si}");
     }
@@ -829,15 +817,18 @@ fn edges_seen_in_a_flat_mirror_are_in_the_full_derivative() {
 /// A sphere beside a mirror sphere over a floor under a point light: the
 /// mirror shows the floor's horizon, the sphere's silhouette and the
 /// shadows on the floor, each on a curve of the film found where it
-/// appears (`diff::boundary::curved`). Moving the sphere, the light or
-/// the camera moves them: ≥ 99 % of pixels pass. Moving the mirror itself
-/// passes on the image mean and on ≥ 98 % of pixels (measured 0.990 and
-/// 0.983): along its rim the image's derivative has an integrable
-/// singularity, which only the interior derivative's rare samples within
+/// appears (`diff::boundary::curved`). Moving the sphere, the light, the
+/// camera or the mirror itself moves them: ≥ 99 % of pixels pass (the
+/// mirror's centre and radius measured 0.995 and 0.991; 0.990 and 0.983
+/// while the grid lost the arcs in its cells across the mirror's rim).
+/// The mirror's radius is the weakest image mean (z −2.9): along the rim
+/// the image's derivative has an integrable singularity with infinite
+/// variance, which only the interior derivative's rare samples within
 /// hundredths of a pixel of the rim estimate (the reflected ray there
 /// turns as the square root of the distance from the rim, and what lies
 /// behind the mirror, here the horizon and the mirror's own shadow,
-/// crowds into that band).
+/// crowds into that band); 256 renders against 48 reference seeds read
+/// the image mean 17 % low (z −3.4).
 #[test]
 fn edges_seen_in_a_curved_mirror_are_in_the_full_derivative() {
     let object = "[[sphere]]\ncenter = [0.7, 0.6, 0.6]\nradius = 0.5";
@@ -853,21 +844,19 @@ fn edges_seen_in_a_curved_mirror_are_in_the_full_derivative() {
     ];
     averaged_checks(path, &text, "whitted", &moves_what_it_shows, 24);
     let moves_the_mirror = [("sphere[1].center[0]", 0.01), ("sphere[1].radius", 0.01)];
-    averaged_checks_to(path, &text, "whitted", &moves_the_mirror, 24, 0.98);
+    averaged_checks(path, &text, "whitted", &moves_the_mirror, 24);
 }
 
 /// The same sphere beside a glass sphere (S1's glass: transparency 0.9,
 /// reflectivity 0.08, index 1.5): through it the eye sees the floor's
 /// horizon and the shadows on the floor, upside down, along the rays
 /// refracted in and out, and again after one and two reflections inside
-/// (`diff::boundary::curved`, `Via::Refraction`). Moving the sphere or
-/// the camera passes on ≥ 99 % of pixels (measured 0.998 and 0.995).
-/// Moving the glass itself, or its index of refraction (which bends every
-/// ray through it), passes on the image mean and on ≥ 98 % (measured
-/// 0.991 and 0.983): the pixels that fail lie on its rim, where the rays
-/// through it leave grazing, as at a curved mirror's rim. Without the
-/// refracted curves the four read 0.950, 0.889, 0.905 and 0.854, with
-/// image-mean z up to 144 (the index).
+/// (`diff::boundary::curved`, `Via::Refraction`). Moving the sphere, the
+/// camera, the glass's radius or its index of refraction (which bends
+/// every ray through it) passes on ≥ 99 % of pixels (measured 0.993,
+/// 0.997, 0.995 and 0.991). Without the refracted curves the four read
+/// 0.950, 0.889, 0.905 and 0.854, with image-mean z up to 144 (the
+/// index).
 #[test]
 fn edges_seen_through_glass_are_in_the_full_derivative() {
     let object = "[[sphere]]\ncenter = [0.7, 0.6, 0.6]\nradius = 0.5";
@@ -876,8 +865,11 @@ fn edges_seen_through_glass_are_in_the_full_derivative() {
                  center = [-0.5, 1.1, -1.2]\nradius = 1.0\nmaterial = \"glass\"\n";
     let text = over_a_floor(object, "diffuse = 0.9") + glass;
     let path = Path::new("test.toml");
-    let moves_what_it_shows = [("sphere[0].center[0]", 0.01), ("camera.eye[1]", 0.02)];
-    averaged_checks(path, &text, "whitted", &moves_what_it_shows, 24);
-    let moves_the_glass = [("sphere[1].radius", 0.01), ("materials.glass.ior", 0.01)];
-    averaged_checks_to(path, &text, "whitted", &moves_the_glass, 24, 0.98);
+    let names = [
+        ("sphere[0].center[0]", 0.01),
+        ("camera.eye[1]", 0.02),
+        ("sphere[1].radius", 0.01),
+        ("materials.glass.ior", 0.01),
+    ];
+    averaged_checks(path, &text, "whitted", &names, 24);
 }

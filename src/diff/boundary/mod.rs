@@ -96,7 +96,7 @@
 //! ellipsoid,
 //! a plane's horizon seen in a flat mirror or from a path vertex, the
 //! pieces of a curve in a curved mirror that its grid misses (within a
-//! grid cell of the mirror's rim), curves where surfaces pass through each
+//! cell where something in front hides part of the mirror), curves where surfaces pass through each
 //! other, and an edge that rests on another surface (a block on a floor):
 //! moved into that surface it moves nothing visible, while the term moves
 //! it with its jump (the derivative at a contact is one-sided).

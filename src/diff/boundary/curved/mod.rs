@@ -31,7 +31,8 @@
 //! and what lies behind the mirror crowds into a thin ring. On the mirror
 //! itself they change smoothly up to the rim. So the curve is found on a
 //! grid over the visible part of the mirror, as a disc (X, Y) (`grid::Cap`),
-//! with cells about [`STEP_PX`] pixels wide on the film at its centre (the
+//! a square grid mapped onto the whole disc, its sides onto the rim, with
+//! cells about [`STEP_PX`] pixels wide on the film at its centre (the
 //! camera ray and the rays on from the mirror, `Via::rays`, per grid
 //! point, shared by all the mirror's curves). Where φ changes sign along a cell side, bisection
 //! places the crossing (marching squares; a saddle is resolved by φ at
@@ -56,14 +57,15 @@
 //! refraction all move it). f± are the integrator's, at x ± ε·n.
 //!
 //! **What it misses.** Pieces of a curve the grid does not see: a closed
-//! loop inside one cell, and arcs in the cells on the disc's edge, whose
-//! corners do not all see the mirror (a sliver of the rim, small on the
-//! film because the film squeezes it). Not covered at all: triangle
-//! meshes' edges and shadows seen in a curved mirror or through glass, a
-//! curved mirror seen in another mirror, the rays reflected inside glass
-//! (each further bounce is another chain), glass that is not a sphere or
-//! an ellipsoid, and a mirror that touches what it reflects (contact, as
-//! for every curve).
+//! loop inside one cell, arcs in cells whose corners do not all see the
+//! mirror (where something in front hides part of it), and the last
+//! 10⁻³ pixel of a curve at the rim, where one side of the jump would
+//! see past the mirror. Not covered at all: triangle meshes' edges and
+//! shadows seen in a curved mirror or through glass, a curved mirror
+//! seen in another mirror or through glass (and glass in a mirror), more
+//! than two reflections inside glass, glass that is not a sphere or an
+//! ellipsoid, and a mirror that touches what it reflects (contact, as for
+//! every curve).
 
 mod grid;
 
@@ -581,15 +583,21 @@ pub fn sample_curved<const K: usize>(
         if !speed.iter().all(|v| v.is_finite()) || speed.iter().all(|&v| v == 0.0) {
             continue;
         }
+        // Both sides must see the mirror: within the offset of its rim
+        // (where the grid now reaches) one would see past it, and the
+        // jump would be the rim's.
+        let (ox, oy) = offset((g.x, g.y), gn);
+        let sees_mirror = |s: f32| {
+            let ray = scene.camera_ray(x.x + s * ox, x.y + s * oy).value();
+            let hit = scene.intersect(&ray, scene.settings.max_distance, &mut NoStats);
+            hit.is_some_and(|h| h.prim == grid.mirror && h.front_face)
+        };
+        stats.light_rays += 2;
+        if !(sees_mirror(-1.0) && sees_mirror(1.0)) {
+            continue;
+        }
         let (pixel, ctx) = landed(&mut stats, (x.x, x.y), w, index, seed);
-        let jump = jump(
-            scene,
-            integrator,
-            (x.x, x.y),
-            offset((g.x, g.y), gn),
-            &ctx,
-            None,
-        );
+        let jump = jump(scene, integrator, (x.x, x.y), (ox, oy), &ctx, None);
         sums.add(pixel, jump, &speed);
     }
     (sums.finish(job.samples), stats)
