@@ -91,12 +91,12 @@ fn on_disc(reach: f32, cells: usize, i: f32, j: f32) -> Vec2 {
 
 /// The grid over a mirror's disc ([`Cap`]): its mirror, the film size,
 /// its step (about [`STEP_PX`] on the film at the disc's centre), cells
-/// across (and down), and per grid point ([`on_disc`]) the film position
-/// and the rays traced there.
+/// across (and down), and per grid point ([`on_disc`]) the rays traced
+/// there.
 pub(super) struct Grid {
     pub(super) disc: Disc,
     cells: usize,
-    points: Vec<Option<(Vec2, Trace)>>,
+    points: Vec<Option<Trace>>,
 }
 
 impl Grid {
@@ -124,14 +124,14 @@ impl Grid {
         let step = STEP_PX * cap.reach / radius.max(STEP_PX);
         let cells = ((2.0 * cap.reach / step).ceil() as usize).clamp(2, MAX_CELLS);
         let step = 2.0 * cap.reach / cells as f32;
-        let points: Vec<Option<(Vec2, Trace)>> = (0..=cells)
+        let points: Vec<Option<Trace>> = (0..=cells)
             .into_par_iter()
             .flat_map_iter(|j| {
                 let cap = &cap;
                 (0..=cells).map(move |i| {
                     let p = on_disc(cap.reach, cells, i as f32, j as f32);
                     let (x, y) = cap.film(&frame, size, (p.x, p.y))?;
-                    Some((Vec2::new(x, y), trace(scene, (x, y), mirror, via)?))
+                    trace(scene, (x, y), mirror, via)
                 })
             })
             .collect();
@@ -169,15 +169,15 @@ impl Grid {
             let (x, y) = self.disc.cap.film(&frame, self.disc.size, (p.x, p.y))?;
             rays += self.disc.via.rays();
             let t = trace(scene, (x, y), self.disc.mirror, self.disc.via)?;
-            setup.phi((x, y), &self.disc, target, &t)
+            setup.phi_along(t.out, target, &t)
         };
         let n = self.cells;
         let values: Vec<Option<f32>> = self
             .points
             .iter()
             .map(|p| {
-                let (x, t) = (*p)?;
-                setup.phi((x.x, x.y), &self.disc, target, &t)
+                let t = p.as_ref()?;
+                setup.phi_along(t.out, target, t)
             })
             .collect();
         let value = |i: usize, j: usize| values[j * (n + 1) + i];

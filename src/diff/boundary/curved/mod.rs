@@ -147,11 +147,12 @@ const MAX_INSIDE: usize = 2;
 
 /// What the camera ray through a film point meets: the mirror (first,
 /// `hits[0]`), where a refracted ray meets it from inside (`hits[1..]`,
-/// the last where it leaves), and what the ray leaving the mirror meets
-/// next.
+/// the last where it leaves), the ray that leaves (origin, unit
+/// direction) and what it meets next.
 #[derive(Clone, Copy)]
 struct Trace {
     hits: [Option<Hit>; MAX_INSIDE + 2],
+    out: (V3<f32>, V3<f32>),
     next: Option<Hit>,
 }
 
@@ -198,6 +199,7 @@ fn trace(scene: &Scene, (x, y): (f32, f32), mirror: u32, via: Via) -> Option<Tra
     let ior = View::material(scene, prim.object).ior;
     let mut found = Trace {
         hits: [None; MAX_INSIDE + 2],
+        out: (V3::zero(), V3::zero()),
         next: None,
     };
     let size = (scene.camera.width, scene.camera.height);
@@ -216,6 +218,7 @@ fn trace(scene: &Scene, (x, y): (f32, f32), mirror: u32, via: Via) -> Option<Tra
             found.hits[i]
         },
     )?;
+    found.out = (o, d);
     found.next = scene.intersect(&Ray::new(o.value(), d.value()), max, &mut NoStats);
     Some(found)
 }
@@ -252,7 +255,12 @@ impl<R: Real, G: Fn(u32) -> ShapeR<R>, L: Fn(usize) -> V3<R>> Setup<'_, R, G, L>
         let shape = (self.geometry)(disc.mirror);
         let mirror = (&shape, self.ior);
         let hits = |i: usize, _: &RayR<R>| trace.hits[i];
-        let (o, d) = leaving(self.frame, self.size, (x, y), mirror, disc.via, hits)?;
+        let out = leaving(self.frame, self.size, (x, y), mirror, disc.via, hits)?;
+        self.phi_along(out, target, trace)
+    }
+
+    /// [`Self::phi`] given the ray `(o, d)` that leaves the mirror.
+    fn phi_along(&self, (o, d): (V3<R>, V3<R>), target: Target, trace: &Trace) -> Option<R> {
         match target {
             Target::Silhouette(prim) => {
                 let (gap, along) = gap(o, d, &(self.geometry)(prim))?;
