@@ -93,13 +93,13 @@
 //! they act): triangle meshes' edges and shadows seen in a curved mirror
 //! or through glass, anything seen in a mesh mirror not in one plane,
 //! after a second reflection, or through glass that is not a sphere or an
-//! ellipsoid,
-//! a plane's horizon seen in a flat mirror or from a path vertex, the
-//! pieces of a curve in a curved mirror that its grid misses (within a
-//! cell where something in front hides part of the mirror), curves where surfaces pass through each
-//! other, and an edge that rests on another surface (a block on a floor):
-//! moved into that surface it moves nothing visible, while the term moves
-//! it with its jump (the derivative at a contact is one-sided).
+//! ellipsoid, a plane's horizon seen in a flat mirror or from a path
+//! vertex, the pieces of a curve in a curved mirror that its grid misses
+//! (within a cell where something in front hides part of the mirror),
+//! curves where surfaces pass through each other, and an edge that rests
+//! on another surface (a block on a floor): moved into that surface it
+//! moves nothing visible, while the term moves it with its jump (the
+//! derivative at a contact is one-sided).
 
 pub mod angles;
 pub mod area;

@@ -22,23 +22,23 @@
 //! - a plane's horizon: d·n, signed by the side of the plane o lies on;
 //! - a point light's shadow edge cast by a sphere or an ellipsoid: the
 //!   same distance for the shadow ray from the point the ray leaving the
-//!   mirror meets (from its origin ε off the surface, as the renderer's shadow
-//!   rays start), where the closest approach lies between it and the
-//!   light.
+//!   mirror meets (from its origin ε off the surface, as the renderer's
+//!   shadow rays start), where the closest approach lies between it and
+//!   the light.
 //!
 //! **Finding the curve.** The film squeezes a mirror's rim: there the
 //! reflected rays, and so φ, change ever faster with the film position,
 //! and what lies behind the mirror crowds into a thin ring. On the mirror
 //! itself they change smoothly up to the rim. So the curve is found on a
-//! grid over the visible part of the mirror, as a disc (X, Y) (`grid::Cap`),
-//! a square grid mapped onto the whole disc, its sides onto the rim, with
-//! cells about [`STEP_PX`] pixels wide on the film at its centre (the
-//! camera ray and the rays on from the mirror, `Via::rays`, per grid
-//! point, shared by all the mirror's curves). Where φ changes sign along a cell side, bisection
-//! places the crossing (marching squares; a saddle is resolved by φ at
-//! the cell's centre), and each cell crossed gives a chord [a, b] on the
-//! disc whose ends lie on the curve, shared with the neighbouring cells'
-//! chords.
+//! grid over the visible part of the mirror, as a disc (X, Y)
+//! (`grid::Cap`): a square grid mapped onto the whole disc, its sides
+//! onto the rim, with cells about [`STEP_PX`] pixels wide on the film at
+//! its centre (the camera ray and the rays on from the mirror,
+//! `Via::rays`, per grid point, shared by all the mirror's curves). Where
+//! φ changes sign along a cell side, bisection places the crossing
+//! (marching squares; a saddle is resolved by φ at the cell's centre),
+//! and each cell crossed gives a chord [a, b] on the disc whose ends lie
+//! on the curve, shared with the neighbouring cells' chords.
 //!
 //! **Sampling it.** A sample picks a chord in proportion to its length ℓ
 //! (of total L) and a point a + u·(b − a) on it, u uniform, and moves it
@@ -203,12 +203,12 @@ fn trace(scene: &Scene, (x, y): (f32, f32), mirror: u32, via: Via) -> Option<Tra
         next: None,
     };
     let size = (scene.camera.width, scene.camera.height);
-    let mirror_ = (&ShapeR::of(prim), ior);
+    let shape = ShapeR::of(prim);
     let (o, d) = leaving(
         &scene.camera.frame(),
         size,
         (x, y),
-        mirror_,
+        (&shape, ior),
         via,
         |i, ray| {
             let hit = scene.intersect(&ray.value(), max, &mut NoStats)?;
