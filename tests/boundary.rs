@@ -831,11 +831,8 @@ fn edges_seen_in_a_flat_mirror_are_in_the_full_derivative() {
 /// the image mean 17 % low (z −3.4).
 #[test]
 fn edges_seen_in_a_curved_mirror_are_in_the_full_derivative() {
-    let object = "[[sphere]]\ncenter = [0.7, 0.6, 0.6]\nradius = 0.5";
-    let mirror = "[materials.mirror]\ncolor = [0.9, 0.9, 0.9]\ndiffuse = 0.1\n\
-                  reflectivity = 0.8\n[[sphere]]\ncenter = [-0.5, 1.1, -1.2]\n\
-                  radius = 1.0\nmaterial = \"mirror\"\n";
-    let text = over_a_floor(object, "diffuse = 0.9") + mirror;
+    let mirror = "color = [0.9, 0.9, 0.9]\ndiffuse = 0.1\nreflectivity = 0.8";
+    let text = beside_a_smooth_sphere("mirror", mirror);
     let path = Path::new("test.toml");
     let moves_what_it_shows = [
         ("sphere[0].center[0]", 0.01),
@@ -859,11 +856,9 @@ fn edges_seen_in_a_curved_mirror_are_in_the_full_derivative() {
 /// index).
 #[test]
 fn edges_seen_through_glass_are_in_the_full_derivative() {
-    let object = "[[sphere]]\ncenter = [0.7, 0.6, 0.6]\nradius = 0.5";
-    let glass = "[materials.glass]\ncolor = [1.0, 1.0, 1.0]\ndiffuse = 0.0\nspecular = 0.0\n\
-                 reflectivity = 0.08\ntransparency = 0.9\nior = 1.5\n[[sphere]]\n\
-                 center = [-0.5, 1.1, -1.2]\nradius = 1.0\nmaterial = \"glass\"\n";
-    let text = over_a_floor(object, "diffuse = 0.9") + glass;
+    let glass = "color = [1.0, 1.0, 1.0]\ndiffuse = 0.0\nspecular = 0.0\n\
+                 reflectivity = 0.08\ntransparency = 0.9\nior = 1.5";
+    let text = beside_a_smooth_sphere("glass", glass);
     let path = Path::new("test.toml");
     let names = [
         ("sphere[0].center[0]", 0.01),
@@ -872,4 +867,16 @@ fn edges_seen_through_glass_are_in_the_full_derivative() {
         ("materials.glass.ior", 0.01),
     ];
     averaged_checks(path, &text, "whitted", &names, 24);
+}
+
+/// The curved tests' scene: a sphere over a floor ([`over_a_floor`])
+/// beside a larger sphere, `sphere[1]`, of material `name` with the TOML
+/// keys `material`.
+fn beside_a_smooth_sphere(name: &str, material: &str) -> String {
+    let object = "[[sphere]]\ncenter = [0.7, 0.6, 0.6]\nradius = 0.5";
+    over_a_floor(object, "diffuse = 0.9")
+        + &format!(
+            "[materials.{name}]\n{material}\n[[sphere]]\ncenter = [-0.5, 1.1, -1.2]\n\
+             radius = 1.0\nmaterial = \"{name}\"\n"
+        )
 }
