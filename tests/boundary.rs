@@ -832,7 +832,7 @@ fn edges_seen_in_a_flat_mirror_are_in_the_full_derivative() {
 #[test]
 fn edges_seen_in_a_curved_mirror_are_in_the_full_derivative() {
     let mirror = "color = [0.9, 0.9, 0.9]\ndiffuse = 0.1\nreflectivity = 0.8";
-    let text = beside_a_smooth_sphere("mirror", mirror);
+    let text = beside_a_smooth_sphere("mirror", mirror, "diffuse = 0.9");
     let path = Path::new("test.toml");
     let moves_what_it_shows = [
         ("sphere[0].center[0]", 0.01),
@@ -858,7 +858,7 @@ fn edges_seen_in_a_curved_mirror_are_in_the_full_derivative() {
 fn edges_seen_through_glass_are_in_the_full_derivative() {
     let glass = "color = [1.0, 1.0, 1.0]\ndiffuse = 0.0\nspecular = 0.0\n\
                  reflectivity = 0.08\ntransparency = 0.9\nior = 1.5";
-    let text = beside_a_smooth_sphere("glass", glass);
+    let text = beside_a_smooth_sphere("glass", glass, "diffuse = 0.9");
     let path = Path::new("test.toml");
     let names = [
         ("sphere[0].center[0]", 0.01),
@@ -869,12 +869,37 @@ fn edges_seen_through_glass_are_in_the_full_derivative() {
     averaged_checks(path, &text, "whitted", &names, 24);
 }
 
-/// The curved tests' scene: a sphere over a floor ([`over_a_floor`])
-/// beside a larger sphere, `sphere[1]`, of material `name` with the TOML
-/// keys `material`.
-fn beside_a_smooth_sphere(name: &str, material: &str) -> String {
+/// The curved-mirror test's scene over a floor that reflects 40 %: the
+/// mirror shows the floor, which shows the sphere, the mirror and the
+/// shadows again, and the floor shows the mirror; each such chain of
+/// bounces (`diff::boundary::curved`, module `chain`: here mirror–floor,
+/// floor–mirror, floor–mirror–floor and mirror–floor–mirror) has a
+/// curve family of its own. Moving the sphere or the light passes on
+/// ≥ 99 % of pixels (measured 0.997, 1.000 for its radius, and 0.997).
+/// Not checked, because they fall short: the camera's height, the
+/// mirror's centre and the floor's height pass on 0.983, 0.984 and 0.991
+/// (0.925, 0.903 and 0.922 with single-bounce chains only); the failing
+/// pixels lie at the mirror's rim and where it meets its reflection, and
+/// the floor's height has its image mean 5 standard errors off.
+#[test]
+fn edges_seen_along_chains_of_mirrors_are_in_the_full_derivative() {
+    let mirror = "color = [0.9, 0.9, 0.9]\ndiffuse = 0.1\nreflectivity = 0.8";
+    let floor = "diffuse = 0.5\nreflectivity = 0.4";
+    let text = beside_a_smooth_sphere("mirror", mirror, floor);
+    let names = [
+        ("sphere[0].center[0]", 0.01),
+        ("sphere[0].radius", 0.01),
+        ("light[0].position[0]", 0.01),
+    ];
+    averaged_checks(Path::new("test.toml"), &text, "whitted", &names, 24);
+}
+
+/// The curved tests' scene: a sphere over a floor ([`over_a_floor`], its
+/// material adding `floor`) beside a larger sphere, `sphere[1]`, of
+/// material `name` with the TOML keys `material`.
+fn beside_a_smooth_sphere(name: &str, material: &str, floor: &str) -> String {
     let object = "[[sphere]]\ncenter = [0.7, 0.6, 0.6]\nradius = 0.5";
-    over_a_floor(object, "diffuse = 0.9")
+    over_a_floor(object, floor)
         + &format!(
             "[materials.{name}]\n{material}\n[[sphere]]\ncenter = [-0.5, 1.1, -1.2]\n\
              radius = 1.0\nmaterial = \"{name}\"\n"

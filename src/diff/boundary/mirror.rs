@@ -25,15 +25,16 @@
 //!
 //! A mesh is a flat mirror when all its triangles lie in one plane and its
 //! shading normals, if it has any, are that plane's (a quad read from a
-//! file); otherwise its reflections are not covered, nor are a curved
-//! mirror's (a sphere, an ellipsoid), a second reflection, and what is
-//! seen through glass.
+//! file); otherwise its reflections are not covered. A curved mirror's
+//! (a sphere, an ellipsoid), what is seen through glass, and chains of
+//! bounces that include either are [`super::curved`]'s; a flat mirror
+//! seen in a flat mirror is not covered.
 
 use crate::diff::view::DualScene;
-use crate::math::{Dual, Ray, Real, Vec3, V3};
+use crate::math::{max_abs, Dual, Ray, Real, Vec3, V3};
 use crate::scene::{Scene, View};
 use crate::shape::triangle::NO_MESH;
-use crate::shape::{Shape, ShapeR};
+use crate::shape::{Hit, Shape, ShapeR, OFFSET_SCALE};
 use crate::stats::NoStats;
 use std::collections::HashMap;
 
@@ -63,6 +64,25 @@ impl<R: Real> Mirror<R> {
         }
     }
 
+    /// The mirror as the renderer's reflected rays see it near `q`, a
+    /// point of its plane: a ray reflected at q starts ε = OFFSET_SCALE ·
+    /// max(|q|∞, 1) off it on the side of `viewer` (the renderer's spawn
+    /// rule), so it leaves as if reflected by the plane moved ε/2 towards
+    /// that side. The edges a mirror shows sit there: at S1's scale ε is
+    /// several times the boundary term's 10⁻³-pixel jump offset, and with
+    /// the plane itself the two evaluations of a jump fell on the same side
+    /// of the floor's reflections of silhouettes.
+    pub fn as_traced(&self, q: Vec3, viewer: Vec3) -> Self {
+        let n = self.normal.value();
+        let side = if (viewer - q).dot(n) < 0.0 { -1.0 } else { 1.0 };
+        let eps = OFFSET_SCALE * max_abs(q).max(1.0);
+        Mirror {
+            object: self.object,
+            point: self.point + self.normal * R::from_f32(0.5 * side * eps),
+            normal: self.normal,
+        }
+    }
+
     /// Whether `p` lies in the plane, to `f32` round-off of coordinates
     /// of `p`'s size.
     pub fn holds(&self, p: Vec3) -> bool {
@@ -81,14 +101,9 @@ impl Mirror<f32> {
     /// only the image's smooth change over the two offsets of its
     /// radiance evaluations.
     pub fn shows(&self, scene: &Scene, (x, y): (f32, f32), target: Vec3) -> bool {
-        let ray = scene.camera_ray(x, y).value();
-        let Some(hit) = scene.intersect(&ray, scene.settings.max_distance, &mut NoStats) else {
+        let Some((ray, hit)) = self.meets(scene, (x, y)) else {
             return false;
         };
-        let material = &scene.materials[scene.objects[hit.object as usize].material as usize];
-        if !self.holds(hit.point) || material.reflectivity <= 0.0 {
-            return false;
-        }
         let n = self.normal.value();
         let to = target - hit.point;
         if to.dot(n) * (ray.origin - hit.point).dot(n) <= 0.0 {
@@ -98,6 +113,15 @@ impl Mirror<f32> {
         let dir = to / dist;
         let start = hit.point + dir * (1e-4 * dist.max(1e-3));
         !scene.occluded(&Ray::new(start, dir), 0.99 * dist, &mut NoStats)
+    }
+
+    /// The camera ray through film point `(x, y)` and its hit, where it
+    /// meets a reflecting surface in the mirror's plane first (one ray).
+    pub fn meets(&self, scene: &Scene, (x, y): (f32, f32)) -> Option<(Ray, Hit)> {
+        let ray = scene.camera_ray(x, y).value();
+        let hit = scene.intersect(&ray, scene.settings.max_distance, &mut NoStats)?;
+        let material = &scene.materials[scene.objects[hit.object as usize].material as usize];
+        (self.holds(hit.point) && material.reflectivity > 0.0).then_some((ray, hit))
     }
 }
 

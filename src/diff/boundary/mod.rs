@@ -57,8 +57,11 @@
 //! **In flat mirrors** ([`mirror`]): under Whitted, what a reflecting
 //! plane, lone triangle or planar mesh shows is the scene seen from the
 //! eye's mirror image, so each curve is sampled once more per mirror,
-//! placed on the film at the projection of its mirror image, and a sample
-//! counts where two rays find that the mirror shows the curve point.
+//! placed on the film at the projection of its mirror image (the plane
+//! moved by half the renderer's spawn offset towards the eye, where its
+//! reflected rays start: [`Mirror::as_traced`]), and a sample counts
+//! where two rays find that the mirror shows the curve point. A curve
+//! seen directly counts where the eye sees its point (one ray).
 //!
 //! **In curved mirrors and through glass** ([`curved`]): a reflecting
 //! sphere or ellipsoid shows each film point along its own reflected ray,
@@ -67,7 +70,10 @@
 //! silhouettes, planes' horizons, point lights' shadow edges cast by
 //! smooth objects) are level sets of functions of the film position,
 //! found on a quarter-pixel grid over the object's image and sampled with
-//! their normal speed from the implicit function theorem.
+//! their normal speed from the implicit function theorem. The same holds
+//! along every chain of specular bounces the renderer traces that
+//! includes a curved one (a mirror seen in the floor, glass seen in a
+//! mirror, …).
 //!
 //! **Why edge sampling.** raylab's primitives have exact silhouettes, and
 //! edge sampling turns each into a 1-D integral whose estimate is unbiased
@@ -91,11 +97,13 @@
 //!
 //! **Not covered** (left to the interior derivative, hence biased where
 //! they act): triangle meshes' edges and shadows seen in a curved mirror
-//! or through glass, anything seen in a mesh mirror not in one plane,
-//! after a second reflection, or through glass that is not a sphere or an
+//! or through glass, anything seen in a mesh mirror not in one plane, in
+//! a chain of bounces with a triangle mirror in it (a flat mirror seen in
+//! a flat mirror included), or through glass that is not a sphere or an
 //! ellipsoid, a plane's horizon seen in a flat mirror or from a path
 //! vertex, the pieces of a curve in a curved mirror that its grid misses
-//! (within a cell where something in front hides part of the mirror),
+//! (within a cell where something in front hides part of the mirror, or
+//! at the rim of a second curved object the first shows),
 //! curves where surfaces pass through each other, and an edge that rests
 //! on another surface (a block on a floor): moved into that surface it
 //! moves nothing visible, while the term moves it with its jump (the
@@ -436,6 +444,16 @@ fn collect_curves<const K: usize>(
     jobs
 }
 
+/// Whether the camera ray through film point `(x, y)` reaches `target`:
+/// nothing hides the first 99 % of the way to it (the rest is where a
+/// silhouette's ray grazes its own surface, or a shadow's receiver is hit
+/// at the point itself).
+fn eye_sees(scene: &Scene, (x, y): (f32, f32), target: Vec3) -> bool {
+    let ray = scene.camera_ray(x, y).value();
+    let dist = (target - ray.origin).length();
+    !scene.occluded(&ray, 0.99 * dist, &mut NoStats)
+}
+
 /// Whether point light `i` moves with the parameters.
 fn light_moves<const K: usize>(view: &DualScene<'_, K>, i: usize) -> bool {
     let position = view.point_light(i).0;
@@ -573,8 +591,8 @@ fn sample_curve<const K: usize>(
     let mirror0 = job.mirror.map(|m| m.value::<f32>());
     for index in 0..job.samples {
         let t = rng.next_f32();
-        let s = job.curve.point(Dual::from_f32(t));
-        let s1 = curve1.point(Dual::<1>::variable(t, 0));
+        let mut s = job.curve.point(Dual::from_f32(t));
+        let mut s1 = curve1.point(Dual::<1>::variable(t, 0));
         let hit = match light {
             None => None,
             Some(l) => {
@@ -585,28 +603,75 @@ fn sample_curve<const K: usize>(
                 }
             }
         };
-        let x = on_film(
-            view.frame(),
-            (w, h),
-            s,
-            hit.map(|(l, hit)| (l, hit, view.geometry(hit.prim))),
-            job.mirror.as_ref(),
-        );
-        let x1 = on_film(
-            &frame1,
-            (w, h),
-            s1,
-            hit.map(|(l, hit)| {
-                let shape = ShapeR::of(&scene.prims[hit.prim as usize]);
-                (V3::from_vec3(l.value()), hit, shape)
-            }),
-            mirror1.as_ref(),
-        );
-        let (Some((x, y)), Some((x1, y1))) = (x, x1) else {
+        let place = |s: V3<Dual<K>>, s1: V3<Dual<1>>, mirror, mirror1| {
+            let x = on_film(
+                view.frame(),
+                (w, h),
+                s,
+                hit.map(|(l, hit)| (l, hit, view.geometry(hit.prim))),
+                mirror,
+            );
+            let x1 = on_film(
+                &frame1,
+                (w, h),
+                s1,
+                hit.map(|(l, hit)| {
+                    let shape = ShapeR::of(&scene.prims[hit.prim as usize]);
+                    (V3::from_vec3(l.value()), hit, shape)
+                }),
+                mirror1,
+            );
+            x.zip(x1)
+        };
+        let Some(((mut x, mut y), (mut x1, mut y1))) =
+            place(s, s1, job.mirror.as_ref(), mirror1.as_ref())
+        else {
             continue;
         };
+        if let (Some(m), Some(m1), Some(m0)) = (&job.mirror, &mirror1, &mirror0) {
+            // Place it again where the renderer's reflected rays see it,
+            // off the plane by their spawn offset at the point they leave
+            // from (`Mirror::as_traced`); a silhouette seen from the
+            // mirrored eye moves with that eye.
+            stats.light_rays += 1;
+            let Some((ray, q)) = m0.meets(scene, (x.v, y.v)) else {
+                continue;
+            };
+            let (m, m1) = (
+                m.as_traced(q.point, ray.origin),
+                m1.as_traced(q.point, ray.origin),
+            );
+            if let (Some(prim), None) = (job.smooth, job.light) {
+                let o = m.reflect(view.frame().eye);
+                let Some(c) = smooth_silhouette(&view.geometry(prim), o) else {
+                    continue;
+                };
+                s = c.point(Dual::from_f32(t));
+                let c1 = c.map(|p| V3::<Dual<1>>::from_vec3(p.value()));
+                s1 = c1.point(Dual::<1>::variable(t, 0));
+            }
+            let Some(placed) = place(s, s1, Some(&m), Some(&m1)) else {
+                continue;
+            };
+            ((x, y), (x1, y1)) = placed;
+        }
         if !(x.v >= 0.0 && y.v >= 0.0 && x.v < w as f32 && y.v < h as f32) {
             continue;
+        }
+        if job.mirror.is_none() {
+            // Only where the eye sees the curve point (or the receiver at
+            // the shadow point) is there an edge; elsewhere the two
+            // evaluations would differ by what is in front's smooth change
+            // over 2ε (a bias the per-pixel check sees on shadow edges
+            // hidden behind the sphere that casts them).
+            stats.light_rays += 1;
+            let target = match hit {
+                None => s.value(),
+                Some((l, hit)) => shadow_point(l, s, hit, &view.geometry(hit.prim)).value(),
+            };
+            if !eye_sees(scene, (x.v, y.v), target) {
+                continue;
+            }
         }
         if let Some(m) = &mirror0 {
             // Only where the mirror shows the curve point is there an edge.

@@ -9,10 +9,17 @@
 //! reflection changes are level sets, not projections. A glass sphere or
 //! ellipsoid is the same with other (o(x), d(x)): the camera ray
 //! refracted in at the near side and out where it meets the far side, or
-//! reflected there once or twice first (`Via::Refraction`, each chain a
-//! curve family of its own, followed while the renderer traces it; the
-//! object is taken to sit in air, and where the ray would leave by total
-//! internal reflection that chain has no ray). Below, "mirror" is either.
+//! reflected there once or twice first (the object is taken to sit in
+//! air, and where the ray would leave by total internal reflection that
+//! way has no ray). Below, "mirror" is either.
+//!
+//! The ray that leaves a mirror may meet another, and a mirror may be
+//! seen in the floor: every sequence of specular bounces the renderer
+//! traces that includes a curved one is a chain (module `chain`) with a
+//! curve family of its own, its (o(x), d(x)) the ray leaving its last
+//! bounce. Planes before its first curved bounce are folded into the eye
+//! (the grid lies on that mirror's disc as the eye's mirror image sees
+//! it); the bounces after it are followed ray by ray.
 //! For each thing that makes an edge there, φ(x, θ) is a function that
 //! changes sign exactly across it:
 //!
@@ -33,8 +40,9 @@
 //! grid over the visible part of the mirror, as a disc (X, Y)
 //! (`grid::Cap`): a square grid mapped onto the whole disc, its sides
 //! onto the rim, with cells about [`STEP_PX`] pixels wide on the film at
-//! its centre (the camera ray and the rays on from the mirror,
-//! `Via::rays`, per grid point, shared by all the mirror's curves). Where
+//! its centre (the camera ray and the rays along the chain per grid
+//! point, shared by all the chain's curves; a coarse grid first, skipped
+//! when none of its points follows the chain). Where
 //! φ changes sign along a cell side, bisection places the crossing
 //! (marching squares; a saddle is resolved by φ at the cell's centre),
 //! and each cell crossed gives a chord [a, b] on the disc whose ends lie
@@ -60,13 +68,16 @@
 //! loop inside one cell, arcs in cells whose corners do not all see the
 //! mirror (where something in front hides part of it), and the last
 //! 10⁻³ pixel of a curve at the rim, where one side of the jump would
-//! see past the mirror. Not covered at all: triangle meshes' edges and
-//! shadows seen in a curved mirror or through glass, a curved mirror
-//! seen in another mirror or through glass (and glass in a mirror), more
-//! than two reflections inside glass, glass that is not a sphere or an
-//! ellipsoid, and a mirror that touches what it reflects (contact, as for
-//! every curve).
+//! see past the mirror. Chains seen only on a part of the disc that the
+//! coarse grid (`COARSE_CELLS` across) misses, and the rims of a second
+//! curved mirror as the first shows it, where its rays turn fast across
+//! the first's grid. Not covered at all: triangle meshes' edges and
+//! shadows seen in a curved mirror or through glass, chains with a
+//! triangle mirror in them, more than two reflections inside glass,
+//! glass that is not a sphere or an ellipsoid, and a mirror that touches
+//! what it reflects (contact, as for every curve).
 
+mod chain;
 mod grid;
 
 use super::sums::{jump, landed, offset, PixelResult, PixelSums};
@@ -75,11 +86,10 @@ use crate::camera::Frame;
 use crate::diff::params::{Entity, Param};
 use crate::diff::view::DualScene;
 use crate::integrator::IntegratorKind;
-use crate::math::{Dual, Ray, RayR, Real, SplitMix64, V3};
+use crate::math::{Dual, RayR, Real, SplitMix64, V3};
 use crate::scene::{Scene, View};
-use crate::shading::{reflect, refract};
-use crate::shape::{Hit, HitR, Shape, ShapeR};
-use crate::stats::NoStats;
+use crate::shape::{HitR, Shape, ShapeR};
+use chain::{chains, leaving, trace, Chain, Trace};
 use glam::Vec2;
 use grid::{Cap, Grid};
 use rayon::prelude::*;
@@ -89,6 +99,9 @@ pub const STEP_PX: f32 = 0.25;
 
 /// The most cells across a grid.
 const MAX_CELLS: usize = 4096;
+
+/// Cells across the coarse grid that says whether a chain is seen at all.
+const COARSE_CELLS: usize = 32;
 
 /// Bisections placing a crossing on a cell side (2⁻¹⁶ of it).
 const BISECTIONS: usize = 16;
@@ -120,109 +133,6 @@ pub struct CurvedJob {
     pub samples: u32,
 }
 
-/// How the rays a curve is seen by leave the mirror: reflected off it, or
-/// refracted through it (in at the near side, reflected `inside` times
-/// off the inside, and out).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Via {
-    Reflection,
-    Refraction { inside: usize },
-}
-
-impl Via {
-    /// Rays cast to trace one film point this way: the camera ray, one
-    /// per segment inside, and the ray that leaves.
-    fn rays(self) -> u64 {
-        match self {
-            Via::Reflection => 2,
-            Via::Refraction { inside } => inside as u64 + 3,
-        }
-    }
-}
-
-/// The most reflections inside glass followed (weights fall as
-/// reflectivity^k; S1's glass, 0.08, is below the renderer's 10⁻³
-/// cut-off at k = 3).
-const MAX_INSIDE: usize = 2;
-
-/// What the camera ray through a film point meets: the mirror (first,
-/// `hits[0]`), where a refracted ray meets it from inside (`hits[1..]`,
-/// the last where it leaves), the ray that leaves (origin, unit
-/// direction) and what it meets next.
-#[derive(Clone, Copy)]
-struct Trace {
-    hits: [Option<Hit>; MAX_INSIDE + 2],
-    out: (V3<f32>, V3<f32>),
-    next: Option<Hit>,
-}
-
-/// The ray (origin, unit direction) that leaves `mirror` (of index `ior`,
-/// in air) `via` one way for the camera ray through film point `(x, y)`,
-/// whose `i`-th meeting with the mirror along the way is `hit(i, ray)`:
-/// the Whitted integrator's reflection, refraction and spawn rules, as
-/// functions of the frame, the film point, the mirror's geometry and the
-/// index. `None` where a hit is missing or a refracted ray is totally
-/// reflected.
-fn leaving<R: Real>(
-    frame: &Frame<R>,
-    (w, h): (u32, u32),
-    (x, y): (R, R),
-    (mirror, ior): (&ShapeR<R>, R),
-    via: Via,
-    mut hit: impl FnMut(usize, &RayR<R>) -> Option<Hit>,
-) -> Option<(V3<R>, V3<R>)> {
-    let ray = frame.ray_at(x, y, w, h);
-    let mut on = HitR::on(mirror, None, &ray, hit(0, &ray)?);
-    let Via::Refraction { inside } = via else {
-        let d = reflect(ray.dir, on.shading_normal).normalize();
-        return Some((on.spawn_origin(d), d));
-    };
-    let mut d = refract(-ray.dir, on.shading_normal, R::one() / ior)?.normalize();
-    for i in 1..=inside + 1 {
-        let ray = RayR::new(on.spawn_origin(d), d);
-        on = HitR::on(mirror, None, &ray, hit(i, &ray)?);
-        d = if i <= inside {
-            reflect(d, on.shading_normal).normalize()
-        } else {
-            refract(-d, on.shading_normal, ior)?.normalize()
-        };
-    }
-    Some((on.spawn_origin(d), d))
-}
-
-/// Where the camera ray through `(x, y)` meets `mirror` first, and the
-/// ray leaving it `via` meets next; `None` where the camera ray meets
-/// something else first, or a ray inside meets something but the mirror.
-fn trace(scene: &Scene, (x, y): (f32, f32), mirror: u32, via: Via) -> Option<Trace> {
-    let max = scene.settings.max_distance;
-    let prim = &scene.prims[mirror as usize];
-    let ior = View::material(scene, prim.object).ior;
-    let mut found = Trace {
-        hits: [None; MAX_INSIDE + 2],
-        out: (V3::zero(), V3::zero()),
-        next: None,
-    };
-    let size = (scene.camera.width, scene.camera.height);
-    let shape = ShapeR::of(prim);
-    let (o, d) = leaving(
-        &scene.camera.frame(),
-        size,
-        (x, y),
-        (&shape, ior),
-        via,
-        |i, ray| {
-            let hit = scene.intersect(&ray.value(), max, &mut NoStats)?;
-            // The first from outside, the others from inside.
-            let ok = hit.prim == mirror && hit.front_face == (i == 0);
-            found.hits[i] = ok.then_some(hit);
-            found.hits[i]
-        },
-    )?;
-    found.out = (o, d);
-    found.next = scene.intersect(&Ray::new(o.value(), d.value()), max, &mut NoStats);
-    Some(found)
-}
-
 /// How far the line o + λd passes outside `shape` (a sphere, or an
 /// ellipsoid in its unit-sphere space) and the λ of its closest approach.
 fn gap<R: Real>(o: V3<R>, d: V3<R>, shape: &ShapeR<R>) -> Option<(R, R)> {
@@ -237,25 +147,30 @@ fn gap<R: Real>(o: V3<R>, d: V3<R>, shape: &ShapeR<R>) -> Option<(R, R)> {
     Some((f.cross(d).length() / dd.sqrt() - r, -f.dot(d) / dd))
 }
 
-/// The geometry φ is a function of, on one number type, with the
-/// mirror's index of refraction.
-struct Setup<'a, R, G, L> {
+/// The geometry φ is a function of, on one number type, with each
+/// primitive's index of refraction.
+struct Setup<'a, R, G, L, I> {
     frame: &'a Frame<R>,
     size: (u32, u32),
     geometry: G,
     light: L,
-    ior: R,
+    ior: I,
 }
 
-impl<R: Real, G: Fn(u32) -> ShapeR<R>, L: Fn(usize) -> V3<R>> Setup<'_, R, G, L> {
+impl<R, G, L, I> Setup<'_, R, G, L, I>
+where
+    R: Real,
+    G: Fn(u32) -> ShapeR<R>,
+    L: Fn(usize) -> V3<R>,
+    I: Fn(u32) -> R,
+{
     /// φ of `target` in `disc`'s mirror at film point `(x, y)`, whose
     /// rays are `trace` (see the module docs); `None` where it makes no
     /// edge.
     fn phi(&self, (x, y): (R, R), disc: &Disc, target: Target, trace: &Trace) -> Option<R> {
-        let shape = (self.geometry)(disc.mirror);
-        let mirror = (&shape, self.ior);
+        let shape = |p: u32| ((self.geometry)(p), (self.ior)(p));
         let hits = |i: usize, _: &RayR<R>| trace.hits[i];
-        let out = leaving(self.frame, self.size, (x, y), mirror, disc.via, hits)?;
+        let out = leaving(self.frame, self.size, (x, y), &disc.chain, shape, hits)?;
         self.phi_along(out, target, trace)
     }
 
@@ -295,13 +210,12 @@ impl<R: Real, G: Fn(u32) -> ShapeR<R>, L: Fn(usize) -> V3<R>> Setup<'_, R, G, L>
     }
 }
 
-/// A mirror's disc ([`Cap`]) on a film of `size` pixels, how the rays
-/// leave the mirror, and its grid's step there (about [`STEP_PX`] on the
-/// film at the disc's centre).
+/// The disc ([`Cap`]) of a chain's first curved object on a film of
+/// `size` pixels, the chain, and its grid's step there (about
+/// [`STEP_PX`] on the film at the disc's centre).
 #[derive(Clone, Copy)]
 struct Disc {
-    mirror: u32,
-    via: Via,
+    chain: Chain,
     size: (u32, u32),
     cap: Cap,
     step: f32,
@@ -343,14 +257,14 @@ fn local(
     let size = (scene.camera.width, scene.camera.height);
     let xy = (Dual::variable(p.x, 0), Dual::variable(p.y, 1));
     let (fx, fy) = grid.cap.film(&frame, size, xy)?;
-    stats.light_rays += grid.via.rays();
-    let trace = trace(scene, (fx.v, fy.v), grid.mirror, grid.via)?;
+    stats.light_rays += grid.chain.rays();
+    let trace = trace(scene, (fx.v, fy.v), &grid.chain)?;
     let setup = Setup {
         frame: &frame,
         size,
         geometry: |p: u32| ShapeR::of(&scene.prims[p as usize]),
         light: |i: usize| V3::from_vec3(scene.lights[i].position),
-        ior: Dual::from_f32(View::material(scene, trace.hits[0]?.object).ior),
+        ior: |p: u32| Dual::from_f32(View::material(scene, scene.prims[p as usize].object).ior),
     };
     let v = setup.phi((fx, fy), grid, target, &trace)?;
     Some(Local {
@@ -421,24 +335,25 @@ pub fn curved_jobs<const K: usize>(
     let smooth = prims(|s| matches!(s, Shape::Sphere(_) | Shape::Ellipsoid(_)));
     let planes = prims(|s| matches!(s, Shape::Plane(_)));
     let mut jobs = Vec::new();
-    for &mirror in &smooth {
-        let m = view.material(object(mirror));
-        let vias = ways_out(scene, m.reflectivity.value(), m.transparency.value());
-        if vias.is_empty() {
-            continue;
-        }
-        // The index bends what the glass shows; a mirror's does nothing.
-        let refracts = m.transparency.value() > 0.0;
-        let ior_moves = refracts && m.ior.d.iter().any(|&d| d != 0.0);
-        let all = camera || ior_moves || view.moves(object(mirror));
+    for chain in chains(scene) {
+        // The index bends what glass shows; a mirror's does nothing.
+        let moves = |step: &chain::Step| {
+            let object = object(step.prim());
+            let ior = &view.material(object).ior;
+            let ior_moves =
+                matches!(step, chain::Step::Through { .. }) && ior.d.iter().any(|&d| d != 0.0);
+            view.moves(object) || ior_moves
+        };
+        let all = camera || chain.steps().iter().any(moves);
+        let last = chain.last();
         let mut targets = Vec::new();
         for &s in &smooth {
-            if s != mirror && (all || view.moves(object(s))) {
+            if s != last && (all || view.moves(object(s))) {
                 targets.push(Target::Silhouette(s));
             }
         }
         for &p in &planes {
-            if all || view.moves(object(p)) {
+            if p != last && (all || view.moves(object(p))) {
                 targets.push(Target::Horizon(p));
             }
         }
@@ -449,49 +364,23 @@ pub fn curved_jobs<const K: usize>(
                 }
             }
         }
-        if targets.is_empty() {
-            continue;
-        }
-        for &via in &vias {
-            mirror_jobs(scene, (mirror, via), &targets, density, stats, &mut jobs);
+        if !targets.is_empty() {
+            mirror_jobs(scene, chain, &targets, density, stats, &mut jobs);
         }
     }
     jobs
 }
 
-/// The ways out of a mirror of `reflectivity` and `transparency` whose
-/// rays the renderer traces (their weight, the product of the factors on
-/// the way, at least its cut-off, within its depth). Total internal
-/// reflection, which adds the transparency to the reflectivity, is not
-/// foreseen here: where it happens, the chain through is cut.
-fn ways_out(scene: &Scene, reflectivity: f32, transparency: f32) -> Vec<Via> {
-    let set = &scene.settings;
-    let traced = |weight: f32, depth: usize| {
-        weight > 0.0 && weight >= set.min_weight && depth < set.max_depth as usize
-    };
-    let mut ways = Vec::new();
-    if traced(reflectivity, 1) {
-        ways.push(Via::Reflection);
-    }
-    for inside in 0..=MAX_INSIDE {
-        let weight = transparency * transparency * reflectivity.powi(inside as i32);
-        if traced(weight, inside + 2) {
-            ways.push(Via::Refraction { inside });
-        }
-    }
-    ways
-}
-
-/// The jobs of `targets` seen in `mirror` `via` one way, pushed on `jobs`.
+/// The jobs of `targets` seen along `chain`, pushed on `jobs`.
 fn mirror_jobs(
     scene: &Scene,
-    (mirror, via): (u32, Via),
+    chain: Chain,
     targets: &[Target],
     density: f32,
     stats: &mut BoundaryStats,
     jobs: &mut Vec<CurvedJob>,
 ) {
-    let Some(grid) = Grid::over(scene, mirror, via, stats) else {
+    let Some(grid) = Grid::over(scene, chain, stats) else {
         return;
     };
     let grid = &grid;
@@ -551,7 +440,7 @@ pub fn sample_curved<const K: usize>(
         size: (w, h),
         geometry: |p: u32| view.geometry(p),
         light: |i: usize| view.point_light(i).0,
-        ior: view.material(scene.prims[grid.mirror as usize].object).ior,
+        ior: |p: u32| view.material(scene.prims[p as usize].object).ior,
     };
     let mut stats = BoundaryStats {
         samples: u64::from(job.samples),
@@ -591,17 +480,13 @@ pub fn sample_curved<const K: usize>(
         if !speed.iter().all(|v| v.is_finite()) || speed.iter().all(|&v| v == 0.0) {
             continue;
         }
-        // Both sides must see the mirror: within the offset of its rim
-        // (where the grid now reaches) one would see past it, and the
-        // jump would be the rim's.
+        // Both sides must follow the chain: within the offset of a rim
+        // on the way (where the grid reaches) one would see past it, and
+        // the jump would be the rim's.
         let (ox, oy) = offset((g.x, g.y), gn);
-        let sees_mirror = |s: f32| {
-            let ray = scene.camera_ray(x.x + s * ox, x.y + s * oy).value();
-            let hit = scene.intersect(&ray, scene.settings.max_distance, &mut NoStats);
-            hit.is_some_and(|h| h.prim == grid.mirror && h.front_face)
-        };
-        stats.light_rays += 2;
-        if !(sees_mirror(-1.0) && sees_mirror(1.0)) {
+        let follows = |s: f32| trace(scene, (x.x + s * ox, x.y + s * oy), &grid.chain).is_some();
+        stats.light_rays += 2 * grid.chain.rays();
+        if !(follows(-1.0) && follows(1.0)) {
             continue;
         }
         let (pixel, ctx) = landed(&mut stats, (x.x, x.y), w, index, seed);
