@@ -541,31 +541,27 @@ fn sample_curve<const K: usize>(
         if !(x.v >= 0.0 && y.v >= 0.0 && x.v < w as f32 && y.v < h as f32) {
             continue;
         }
-        if job.mirror.is_none() {
-            // Only where the eye sees the curve point (or the receiver at
-            // the shadow point) is there an edge; elsewhere the two
-            // evaluations would differ by what is in front's smooth change
-            // over 2ε (a bias the per-pixel check sees on shadow edges
-            // hidden behind the sphere that casts them).
-            stats.light_rays += 1;
-            let target = match hit {
-                None => s.value(),
-                Some((l, hit)) => shadow_point(l, s, hit, &view.geometry(hit.prim)).value(),
-            };
-            if !eye_sees(scene, (x.v, y.v), target) {
-                continue;
+        // Only where the eye sees the curve point (or the receiver at the
+        // shadow point), directly or in the mirror, is there an edge;
+        // elsewhere the two evaluations would differ by the smooth change
+        // of what is in front over 2ε (a bias the per-pixel check sees on
+        // shadow edges hidden behind the sphere that casts them).
+        let target = match hit {
+            None => s.value(),
+            Some((l, hit)) => shadow_point(l, s, hit, &view.geometry(hit.prim)).value(),
+        };
+        let seen = match &mirror0 {
+            None => {
+                stats.light_rays += 1;
+                eye_sees(scene, (x.v, y.v), target)
             }
-        }
-        if let Some(m) = &mirror0 {
-            // Only where the mirror shows the curve point is there an edge.
-            let target = match hit {
-                None => s.value(),
-                Some((l, hit)) => shadow_point(l, s, hit, &view.geometry(hit.prim)).value(),
-            };
-            stats.light_rays += 2;
-            if !m.shows(scene, (x.v, y.v), target) {
-                continue;
+            Some(m) => {
+                stats.light_rays += 2;
+                m.shows(scene, (x.v, y.v), target)
             }
+        };
+        if !seen {
+            continue;
         }
         // ⊥(dx/dt): a normal of the curve on the film, |dx/dt| long.
         let normal = (-y1.d[0], x1.d[0]);
