@@ -41,8 +41,9 @@
 //! (`grid::Cap`): a square grid mapped onto the whole disc, its sides
 //! onto the rim, with cells about [`STEP_PX`] pixels wide on the film at
 //! its centre (the camera ray and the rays along the chain per grid
-//! point, shared by all the chain's curves; a coarse grid first, skipped
-//! when none of its points follows the chain). Where
+//! point, shared by all the chain's curves; a coarse grid first says
+//! where the chain is followed, and the grid covers only that window,
+//! none at all where it is followed nowhere). Where
 //! φ changes sign along a cell side, bisection places the crossing
 //! (marching squares; a saddle is resolved by φ at the cell's centre),
 //! and each cell crossed gives a chord [a, b] on the disc whose ends lie
