@@ -41,6 +41,7 @@ pub mod check;
 pub mod optimize;
 pub mod params;
 pub mod render;
+pub mod rim;
 pub mod view;
 
 pub use boundary::{BoundaryStats, Visibility};

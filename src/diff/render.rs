@@ -21,9 +21,11 @@
 //! Parameters are taken K at a time with K ∈ {1, 2, 4, 8, 16} (the smallest
 //! that holds them); more than 16 run in several passes.
 
+use super::boundary::mirror::mirrors;
 use super::boundary::vertex::path_term;
 use super::boundary::{boundary_term, Boundary, Visibility};
 use super::params::Param;
+use super::rim::{rim_term, RimStats, Rims};
 use super::view::DualScene;
 use crate::film::Filter;
 use crate::integrator::path::NoEnd;
@@ -63,6 +65,9 @@ pub struct Gradients {
     /// The boundary term alone (already in `mean`): empty planes and no
     /// samples with `Interior` visibility.
     pub boundary: Boundary,
+    /// What the rim zones' sampler did (its part of the interior
+    /// derivative is in `mean`; [`super::rim`]).
+    pub rim: RimStats,
 }
 
 impl Gradients {
@@ -151,10 +156,11 @@ pub fn render_gradients(
         count: scene.settings.sampler.spp(),
         visibility,
         boundary: Boundary::default(),
+        rim: RimStats::default(),
     };
     for chunk in params.chunks(MAX_K) {
         let run = (scene, file, path, chunk, integrator, visibility, threads);
-        let (mut mean, mut variance, mut grey, boundary) = match chunk.len() {
+        let (mut mean, mut variance, mut grey, boundary, rim) = match chunk.len() {
             1 => pass::<1>(run)?,
             2 => pass::<2>(run)?,
             3 | 4 => pass::<4>(run)?,
@@ -170,6 +176,10 @@ pub fn render_gradients(
             }
             out.boundary.extend(b);
         }
+        out.rim.spheres = rim.spheres;
+        out.rim.samples += rim.samples;
+        out.rim.landed += rim.landed;
+        out.rim.seconds += rim.seconds;
         out.mean.extend(mean);
         out.variance.extend(variance);
         out.variance_grey.extend(grey);
@@ -184,13 +194,14 @@ fn add(a: &mut [f32], b: &[f32], s: f32) {
     }
 }
 
-/// The interior planes (mean, variance, grey variance) and, with `Full`
-/// visibility, the boundary term.
+/// The interior planes (mean, variance, grey variance), with `Full`
+/// visibility the boundary term, and the rim sampler's counters.
 type Planes = (
     Vec<Vec<f32>>,
     Vec<Vec<f32>>,
     Vec<Vec<f32>>,
     Option<Boundary>,
+    RimStats,
 );
 
 /// What one pass needs: the scene, its file and path, the parameters, the
@@ -222,6 +233,12 @@ fn pass<const K: usize>(
     let seed = scene.settings.seed;
     let spp = sampler.spp();
     let n = params.len();
+    // Flat mirrors reflect under Whitted only.
+    let flat: Vec<_> = match integrator {
+        IntegratorKind::Whitted => mirrors(&view).iter().map(|m| m.value()).collect(),
+        _ => Vec::new(),
+    };
+    let rims = Rims::of(scene, &flat);
     // Per row: for each pixel, (mean, variance, grey variance) per param.
     crate::integrator::progress::announce(h as u64);
     let rows: Vec<Vec<[f32; 7]>> = in_pool(threads, || {
@@ -240,6 +257,10 @@ fn pass<const K: usize>(
                         let off = sampler.sample(px, py, index, seed);
                         let pos = Vec2::new(px as f32, py as f32) + off;
                         let ray = view.camera_ray(pos.x, pos.y);
+                        if rims.owns(scene, &ray.value()) {
+                            // Counts 0: the rim sampler covers it.
+                            continue;
+                        }
                         let ctx = SampleContext {
                             px,
                             py,
@@ -295,6 +316,14 @@ fn pass<const K: usize>(
             grey[k].push(v[6]);
         }
     }
+    // The rim zones the pixel samples left out.
+    let rim = rim_term(&view, &rims, n, &integrator, spp, seed, threads);
+    let m = spp as f32;
+    for k in 0..n {
+        add(&mut mean[k], &rim.mean[k], 1.0);
+        add(&mut variance[k], &rim.variance[k], m);
+        add(&mut grey[k], &rim.variance_grey[k], m);
+    }
     let boundary = (visibility == Visibility::Full).then(|| {
         let mut b = boundary_term(&view, params, &integrator, spp as f32, seed, threads);
         // What paths meet after the camera ray (`direct`, `path:K`).
@@ -303,7 +332,7 @@ fn pass<const K: usize>(
         }
         b
     });
-    Ok((mean, variance, grey, boundary))
+    Ok((mean, variance, grey, boundary, rim.stats))
 }
 
 /// One sample's radiance through the chosen integrator on `view`.

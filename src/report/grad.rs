@@ -82,6 +82,8 @@ pub struct GradReport {
     pub visibility: diff::Visibility,
     /// The boundary term's samples and cost (all zero with `Interior`).
     pub boundary: diff::BoundaryStats,
+    /// The interior derivative's rim zones ([`diff::rim`]).
+    pub rim: diff::rim::RimStats,
     pub rows: Vec<ParamRow>,
 }
 
@@ -174,6 +176,7 @@ impl GradReport {
             gradient_s,
             visibility: opts.visibility,
             boundary: grads.boundary.stats,
+            rim: grads.rim,
             rows,
         })
     }
@@ -247,6 +250,20 @@ impl fmt::Display for GradReport {
             self.gradient_s,
             self.gradient_s / self.render_s.max(1e-9)
         )?;
+        let r = &self.rim;
+        if r.spheres > 0 {
+            writeln!(
+                f,
+                "rim zones: {} (spheres seen directly or in flat mirrors, viewing cosine < {}), \
+                 {} samples ({} in their zone, {} not finite), {:.3} s",
+                r.spheres,
+                diff::rim::RIM_COS,
+                r.samples,
+                r.landed,
+                r.dropped,
+                r.seconds
+            )?;
+        }
         let b = &self.boundary;
         match self.visibility {
             diff::Visibility::Interior => writeln!(

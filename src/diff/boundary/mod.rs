@@ -115,7 +115,7 @@ pub mod curved;
 pub mod curves;
 mod film;
 pub mod mirror;
-mod sums;
+pub(crate) mod sums;
 pub mod vertex;
 
 use super::params::{Entity, Param};
@@ -333,15 +333,12 @@ pub fn boundary_term<const K: usize>(
     });
     for (pixels, stats) in results {
         out.stats.add(&stats);
-        for (pixel, mean, var, grey) in pixels {
-            for k in 0..n {
-                for c in 0..3 {
-                    out.mean[k][3 * pixel + c] += mean[k][c];
-                    out.variance[k][3 * pixel + c] += var[k][c];
-                }
-                out.variance_grey[k][pixel] += grey[k];
-            }
-        }
+        let planes = (
+            &mut out.mean[..],
+            &mut out.variance[..],
+            &mut out.variance_grey[..],
+        );
+        sums::fold_into(pixels, n, planes);
     }
     out.stats.seconds = start.elapsed().as_secs_f64();
     out

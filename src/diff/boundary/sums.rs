@@ -14,7 +14,28 @@ use std::collections::HashMap;
 
 /// Per touched pixel, per parameter: the mean, the variance of the mean
 /// per channel, and that of the channel mean.
-pub(super) type PixelResult<const K: usize> = Vec<(usize, [[f32; 3]; K], [[f32; 3]; K], [f32; K])>;
+pub(crate) type PixelResult<const K: usize> = Vec<(usize, [[f32; 3]; K], [[f32; 3]; K], [f32; K])>;
+
+/// Per-parameter planes: means and variances (per pixel and channel) and
+/// the grey variances (per pixel).
+pub(crate) type Planes<'a> = (&'a mut [Vec<f32>], &'a mut [Vec<f32>], &'a mut [Vec<f32>]);
+
+/// Add `pixels` (for the first `n` parameters) into `planes`.
+pub(crate) fn fold_into<const K: usize>(
+    pixels: PixelResult<K>,
+    n: usize,
+    (mean, variance, grey): Planes<'_>,
+) {
+    for (pixel, m, var, g) in pixels {
+        for k in 0..n {
+            for c in 0..3 {
+                mean[k][3 * pixel + c] += m[k][c];
+                variance[k][3 * pixel + c] += var[k][c];
+            }
+            grey[k][pixel] += g[k];
+        }
+    }
+}
 
 /// The jump f⁻ − f⁺ across a curve at film point `(x, y)`: the radiance
 /// of the integrator on the camera rays at (x, y) ∓ `offset` (the curve's
@@ -114,9 +135,10 @@ struct Sums<const K: usize> {
     g2: [f64; K],
 }
 
-/// The running sums of one curve's samples, per touched pixel, for the
-/// first `n` of the K parameters.
-pub(super) struct PixelSums<const K: usize> {
+/// The running sums of one curve's samples (or of one sphere's rim
+/// samples, [`crate::diff::rim`]), per touched pixel, for the first `n` of
+/// the K parameters.
+pub(crate) struct PixelSums<const K: usize> {
     n: usize,
     sums: HashMap<usize, Sums<K>>,
 }
@@ -129,25 +151,53 @@ impl<const K: usize> PixelSums<K> {
         }
     }
 
-    /// A sample in `pixel`: its jump times the curve's normal speed per
-    /// parameter (already over the sample's density).
-    pub fn add(&mut self, pixel: usize, jump: [f64; 3], speed: &[f32]) {
-        let e = self.sums.entry(pixel).or_insert(Sums {
+    /// The sums of `pixel`, zero when new.
+    fn at(&mut self, pixel: usize) -> &mut Sums<K> {
+        self.sums.entry(pixel).or_insert(Sums {
             s1: [[0.0; 3]; K],
             s2: [[0.0; 3]; K],
             g1: [0.0; K],
             g2: [0.0; K],
-        });
-        for (k, &v) in speed.iter().enumerate() {
-            let v = f64::from(v);
-            for (c, &j) in jump.iter().enumerate() {
-                let g = j * v;
+        })
+    }
+
+    /// A sample in `pixel`: its jump times the curve's normal speed per
+    /// parameter (already over the sample's density).
+    pub fn add(&mut self, pixel: usize, jump: [f64; 3], speed: &[f32]) {
+        let mut values = [[0.0; 3]; K];
+        for (value, &v) in values.iter_mut().zip(speed) {
+            *value = jump.map(|j| j * f64::from(v));
+        }
+        self.add_values(pixel, &values[..speed.len()]);
+    }
+
+    /// A sample in `pixel` with value `values[k]` (per channel, already
+    /// over the sample's density) for parameter k.
+    pub fn add_values(&mut self, pixel: usize, values: &[[f64; 3]]) {
+        let e = self.at(pixel);
+        for (k, v) in values.iter().enumerate() {
+            for (c, &g) in v.iter().enumerate() {
                 e.s1[k][c] += g;
                 e.s2[k][c] += g * g;
             }
-            let g = (jump[0] + jump[1] + jump[2]) / 3.0 * v;
+            let g = (v[0] + v[1] + v[2]) / 3.0;
             e.g1[k] += g;
             e.g2[k] += g * g;
+        }
+    }
+
+    /// The samples of `other` (the same curve's, drawn elsewhere) added in.
+    pub fn merge(&mut self, other: Self) {
+        for (pixel, o) in other.sums {
+            let e = self.at(pixel);
+            for k in 0..K {
+                for c in 0..3 {
+                    e.s1[k][c] += o.s1[k][c];
+                    e.s2[k][c] += o.s2[k][c];
+                }
+                e.g1[k] += o.g1[k];
+                e.g2[k] += o.g2[k];
+            }
         }
     }
 
