@@ -10,7 +10,11 @@
 //! and the random numbers are the render's own (same seed, same per-pixel
 //! streams). The per-pixel result is the mean of the samples' derivatives,
 //! with its sample variance: the derivative of the pixel estimator, an
-//! unbiased estimate of the *interior* derivative (see [`super`]).
+//! unbiased estimate of the *interior* derivative (see [`super`]). Where
+//! a parameter moves what camera rays meet (geometry, the camera, an
+//! index of refraction), the rim zones of spheres are sampled on the
+//! sphere instead ([`super::rim`]): still unbiased, but there no longer
+//! the derivative of the `f32` render's own samples.
 //!
 //! With [`Visibility::Full`] (the default of `raylab grad`) each pass then
 //! adds the boundary term ([`super::boundary`]) on the same duals, with
@@ -25,7 +29,7 @@ use super::boundary::mirror::mirrors;
 use super::boundary::vertex::path_term;
 use super::boundary::{boundary_term, Boundary, Visibility};
 use super::params::Param;
-use super::rim::{rim_term, RimStats, Rims};
+use super::rim::{moves_hits, rim_term, RimStats, Rims};
 use super::view::DualScene;
 use crate::film::Filter;
 use crate::integrator::path::NoEnd;
@@ -233,12 +237,19 @@ fn pass<const K: usize>(
     let seed = scene.settings.seed;
     let spp = sampler.spp();
     let n = params.len();
-    // Flat mirrors reflect under Whitted only.
-    let flat: Vec<_> = match integrator {
-        IntegratorKind::Whitted => mirrors(&view).iter().map(|m| m.value()).collect(),
-        _ => Vec::new(),
+    // Rim zones only where a parameter moves what a camera ray meets at a
+    // fixed film point (module `rim`); elsewhere the derivative stays that
+    // of the `f32` render's own estimator. Flat mirrors reflect under
+    // Whitted only.
+    let rims = if params.iter().any(moves_hits) {
+        let flat: Vec<_> = match integrator {
+            IntegratorKind::Whitted => mirrors(&view).iter().map(|m| m.value()).collect(),
+            _ => Vec::new(),
+        };
+        Rims::of(scene, &flat)
+    } else {
+        Rims::default()
     };
-    let rims = Rims::of(scene, &flat);
     // Per row: for each pixel, (mean, variance, grey variance) per param.
     crate::integrator::progress::announce(h as u64);
     let rows: Vec<Vec<[f32; 7]>> = in_pool(threads, || {

@@ -40,6 +40,11 @@
 //! The Jacobian comes from forward mode on two-wide duals; ∂f/∂θ is the
 //! integrator's, on the same K-wide duals as the pixel samples.
 //!
+//! Only parameters that move what camera rays meet ([`moves_hits`]) have
+//! the singularity, and only passes with one of them split the film; for
+//! the others the gradient render stays the derivative of the `f32`
+//! render's own samples.
+//!
 //! Both are the interior derivative: with `--visibility interior` too, and
 //! the boundary term (the silhouette's jump, taken in the limit at the
 //! rim) is unchanged. Spheres are done, not ellipsoids (whose zone is not
@@ -64,6 +69,7 @@
 
 use super::boundary::mirror::Mirror;
 use super::boundary::sums::{fold_into, PixelSums};
+use super::params::{Entity, Param};
 use super::render::radiance;
 use super::view::DualScene;
 use crate::integrator::{in_pool, IntegratorKind, SampleContext};
@@ -73,6 +79,20 @@ use crate::shape::{Hit, Shape};
 use crate::stats::NoStats;
 use rayon::prelude::*;
 use std::time::Instant;
+
+/// Whether parameter `p` moves what a camera ray meets at a fixed film
+/// point (an object, a plane, the camera, an index of refraction): only
+/// then has the interior integrand the rim singularity. A light's
+/// position or a colour changes the shading smoothly there, and for them
+/// the gradient render stays the derivative of the render's own samples.
+pub fn moves_hits(p: &Param) -> bool {
+    match p.entity {
+        Entity::Sphere(_) | Entity::Ellipsoid(_) | Entity::Triangle(_) | Entity::Mesh(_) => true,
+        Entity::Camera | Entity::Plane(_) => true,
+        Entity::Material(_) => p.field == "ior",
+        Entity::Light(_) | Entity::Render => false,
+    }
+}
 
 /// The viewing cosine below which a sphere's hit is in its rim zone.
 pub const RIM_COS: f32 = 0.25;
