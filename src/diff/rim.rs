@@ -170,7 +170,10 @@ impl Rims {
     }
 
     /// Whether the pixel sample on camera ray `ray` belongs to a rim zone
-    /// (and so counts 0 there): see [`Rims::zone_of`].
+    /// (and so counts 0 there): its first hit is a sphere at a viewing
+    /// cosine below [`RIM_COS`], or its first hit is one of the flat
+    /// mirrors and the ray reflected there meets a sphere first at such a
+    /// cosine.
     pub fn owns(&self, scene: &Scene, ray: &Ray) -> bool {
         if self.mirrors.is_empty() {
             // A ray from outside that passes the centre at distance g
