@@ -103,6 +103,10 @@ pub const SAMPLES_PER_PX: f32 = 2.0;
 /// The most samples one sphere's rim gets.
 pub const MAX_SAMPLES: u64 = 1 << 22;
 
+/// The most rim zones that [`Rims::owns`] rules out by a loop over the
+/// spheres before tracing.
+const PREFILTER_MAX: usize = 16;
+
 /// Samples per parallel task.
 const CHUNK: u64 = 256;
 
@@ -137,6 +141,8 @@ struct RimView {
 #[derive(Clone, Debug, Default)]
 pub struct Rims {
     views: Vec<RimView>,
+    /// The views' (sphere, mirror) pairs, sorted, for the zone test.
+    keys: Vec<(u32, Option<usize>)>,
     mirrors: Vec<Mirror<f32>>,
 }
 
@@ -148,6 +154,7 @@ impl Rims {
     pub fn of(scene: &Scene, mirrors: &[Mirror<f32>]) -> Self {
         let mut rims = Rims {
             views: Vec::new(),
+            keys: Vec::new(),
             mirrors: mirrors.to_vec(),
         };
         for (i, p) in scene.prims.iter().enumerate() {
@@ -163,9 +170,11 @@ impl Rims {
                 };
                 if (rims.eye(scene, &view) - s.centre).length() > s.radius * (1.0 + 1e-4) {
                     rims.views.push(view);
+                    rims.keys.push((view.prim, view.via));
                 }
             }
         }
+        rims.keys.sort_unstable();
         rims
     }
 
@@ -175,12 +184,13 @@ impl Rims {
     /// mirrors and the ray reflected there meets a sphere first at such a
     /// cosine.
     pub fn owns(&self, scene: &Scene, ray: &Ray) -> bool {
-        if self.mirrors.is_empty() {
+        if self.mirrors.is_empty() && self.views.len() <= PREFILTER_MAX {
             // A ray from outside that passes the centre at distance g
             // enters at the viewing cosine √(1 − g²/r²): in the zone when
             // r²(1 − RIM_COS²) < g² ≤ r² (with a margin for rounding; the
             // traced hit decides). Without mirrors, other rays are ruled
-            // out without tracing.
+            // out without tracing (among a few spheres; among many, one
+            // traced ray is cheaper than the loop).
             let near = self.views.iter().any(|v| {
                 let to = v.centre - ray.origin;
                 let along = to.dot(ray.dir) / ray.dir.length_squared();
@@ -227,10 +237,7 @@ impl Rims {
     /// Whether `hit` on `ray` is in the rim zone of a sphere seen through
     /// `via`.
     fn in_zone(&self, hit: &Hit, ray: &Ray, via: Option<usize>) -> bool {
-        let ours = self
-            .views
-            .iter()
-            .any(|v| v.prim == hit.prim && v.via == via);
+        let ours = self.keys.binary_search(&(hit.prim, via)).is_ok();
         ours && hit.geometric_normal.dot(ray.dir.normalize()).abs() < RIM_COS
     }
 
