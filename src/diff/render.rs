@@ -180,10 +180,7 @@ pub fn render_gradients(
             }
             out.boundary.extend(b);
         }
-        out.rim.spheres = rim.spheres;
-        out.rim.samples += rim.samples;
-        out.rim.landed += rim.landed;
-        out.rim.seconds += rim.seconds;
+        out.rim.add(&rim);
         out.mean.extend(mean);
         out.variance.extend(variance);
         out.variance_grey.extend(grey);

@@ -126,6 +126,18 @@ pub struct RimStats {
     pub seconds: f64,
 }
 
+impl RimStats {
+    /// Another pass's counters (the same zones, other parameters) added
+    /// in: samples and time summed, the zones counted once.
+    pub fn add(&mut self, o: &RimStats) {
+        self.spheres = self.spheres.max(o.spheres);
+        self.samples += o.samples;
+        self.landed += o.landed;
+        self.dropped += o.dropped;
+        self.seconds += o.seconds;
+    }
+}
+
 /// One rim zone: a sphere (primitive, centre, radius) seen directly
 /// (`via` None) or in flat mirror `via` of [`Rims`]' mirrors.
 #[derive(Clone, Copy, Debug)]
