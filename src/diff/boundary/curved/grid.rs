@@ -2,7 +2,7 @@
 //! mirror the eye sees and marching squares on it (see [`super`]).
 
 use super::chain::{trace, Chain, Trace, MAX_STEPS};
-use super::{Disc, Setup, Target, BISECTIONS, COARSE_CELLS, MAX_CELLS, STEP_PX};
+use super::{Disc, Setup, Target, BISECTIONS, COARSE_CELLS, MAX_CELLS, MIN_CELLS, STEP_PX};
 use crate::camera::Frame;
 use crate::diff::boundary::BoundaryStats;
 use crate::math::{Real, M3, V3};
@@ -170,7 +170,7 @@ impl Grid {
             radius = radius.max((x - cx).hypot(y - cy));
         }
         let step = STEP_PX * cap.reach / radius.max(STEP_PX);
-        let cells = ((2.0 * cap.reach / step).ceil() as usize).clamp(2, MAX_CELLS);
+        let cells = ((2.0 * cap.reach / step).ceil() as usize).clamp(MIN_CELLS, MAX_CELLS);
         let step = 2.0 * cap.reach / cells as f32;
         // Most chains are seen nowhere, or on a small part of the disc:
         // a coarse grid first says where points follow the chain, and the
