@@ -2,9 +2,11 @@
 //! mirror the eye sees and marching squares on it (see [`super`]).
 
 use super::chain::{trace, Chain, Trace, MAX_STEPS};
-use super::{Disc, Setup, Target, BISECTIONS, COARSE_CELLS, MAX_CELLS, MIN_CELLS, STEP_PX};
+use super::{
+    Disc, Setup, Target, BISECTIONS, COARSE_CELLS, MAX_CELLS, MIN_CELLS, STEP_PX, ZERO_SHRINK,
+};
 use crate::camera::Frame;
-use crate::diff::boundary::BoundaryStats;
+use crate::diff::boundary::{BoundaryStats, OFFSET_PX};
 use crate::math::{Real, M3, V3};
 use crate::scene::{Scene, View};
 use crate::shape::{Shape, ShapeR};
@@ -105,28 +107,53 @@ impl Cap {
 /// Where grid point `(i, j)` of a grid `cells` across lies on a disc of
 /// radius `reach`: the square [−1, 1]² mapped onto the disc by
 /// (u√(1 − v²/2), v√(1 − u²/2)), smooth and one to one, its sides onto
-/// the rim (pulled in by 10⁻⁵ of the radius, where the rays still meet
-/// the mirror). So the cells tile the whole disc, up to its rim, where
-/// the film squeezes what the mirror shows; a square grid cut by the
-/// circle lost the arcs in its cells across the rim (the mirror test's
-/// pixels there passed 0.5–1 % less often).
-fn on_disc(reach: f32, cells: usize, i: f32, j: f32) -> Vec2 {
+/// the rim pulled in by the fraction `rim` of the radius ([`rim_pull`]).
+/// So the cells tile the whole disc, up to its rim, where the film
+/// squeezes what the mirror shows; a square grid cut by the circle lost
+/// the arcs in its cells across the rim (the mirror test's pixels there
+/// passed 0.5–1 % less often).
+fn on_disc(reach: f32, rim: f32, cells: usize, i: f32, j: f32) -> Vec2 {
     let (u, v) = (2.0 * i / cells as f32 - 1.0, 2.0 * j / cells as f32 - 1.0);
-    let r = reach * (1.0 - 1e-5);
+    let r = reach * (1.0 - rim);
     Vec2::new(
         u * (1.0 - 0.5 * v * v).sqrt(),
         v * (1.0 - 0.5 * u * u).sqrt(),
     ) * r
 }
 
+/// How far in (a fraction of the disc's radius `reach`) the grid's
+/// outermost points lie, on a disc `radius` pixels in radius on the
+/// film: where they are [`OFFSET_PX`]/32 inside the object's silhouette
+/// on the film. Rays through points much closer to it are not the rays
+/// through the disc point (a film position in f32 cannot say which side
+/// of the silhouette it is on), and a sample of a curve running along
+/// the rim closer than [`OFFSET_PX`] is refused anyway, since one side of
+/// its jump would see past the object. In unit-sphere space, with the
+/// eye at distance D = 1/√(1 − reach²), a point a fraction ρ in from the
+/// disc's rim is seen at a viewing cosine of about ρD, and lies about
+/// radius·(ρD)²/2 pixels inside the silhouette. The points used to lie
+/// 10⁻⁵ in (10⁻⁷ pixel on S1's mirror at 32×32): their rays often missed
+/// the object, the outermost ring of cells found no curve, and the
+/// floor's shadows reflected in S1's mirror stopped short of where they
+/// meet its rim. At [`OFFSET_PX`]/2 the glass's curves lost a little more
+/// than that gained (S1's glass radius passed on 99.4 % of the pixels, not
+/// 99.5 %).
+fn rim_pull(reach: f32, radius: f32) -> f32 {
+    let d = 1.0 / (1.0 - reach * reach).max(1e-12).sqrt();
+    let rho = (OFFSET_PX / (16.0 * radius.max(1e-3))).sqrt() / d;
+    rho.clamp(1e-5, 0.05)
+}
+
 /// The grid over a mirror's disc ([`Cap`]): its chain, the film size,
 /// its step (about [`STEP_PX`] on the film at the disc's centre), cells
-/// across the whole disc, the window of them laid out (from cell `lo`,
+/// across the whole disc, how far in its outermost points lie
+/// ([`rim_pull`]), the window of them laid out (from cell `lo`,
 /// `n` cells across and down), and per grid point of the window
 /// ([`on_disc`]) the rays traced there.
 pub(super) struct Grid {
     pub(super) disc: Disc,
     cells: usize,
+    rim: f32,
     lo: (usize, usize),
     n: (usize, usize),
     points: Vec<Option<Trace>>,
@@ -172,6 +199,7 @@ impl Grid {
         let step = STEP_PX * cap.reach / radius.max(STEP_PX);
         let cells = ((2.0 * cap.reach / step).ceil() as usize).clamp(MIN_CELLS, MAX_CELLS);
         let step = 2.0 * cap.reach / cells as f32;
+        let rim = rim_pull(cap.reach, radius);
         // Most chains are seen nowhere, or on a small part of the disc:
         // a coarse grid first says where points follow the chain, and the
         // grid is laid out over those with a coarse cell to spare.
@@ -180,7 +208,7 @@ impl Grid {
             .into_par_iter()
             .map(|k| {
                 let (i, j) = ((k % (coarse + 1)) as f32, (k / (coarse + 1)) as f32);
-                let p = on_disc(cap.reach, coarse, i, j);
+                let p = on_disc(cap.reach, rim, coarse, i, j);
                 let film = cap.film(&frame, size, (p.x, p.y));
                 film.is_some_and(|xy| trace(scene, xy, &chain).is_some())
             })
@@ -196,7 +224,7 @@ impl Grid {
                 let cap = &cap;
                 (0..=n.0).map(move |i| {
                     let (i, j) = ((lo.0 + i) as f32, (lo.1 + j) as f32);
-                    let p = on_disc(cap.reach, cells, i, j);
+                    let p = on_disc(cap.reach, rim, cells, i, j);
                     let (x, y) = cap.film(&frame, size, (p.x, p.y))?;
                     trace(scene, (x, y), &chain)
                 })
@@ -211,6 +239,7 @@ impl Grid {
                 step,
             },
             cells,
+            rim,
             lo,
             n,
             points,
@@ -221,7 +250,7 @@ impl Grid {
     /// half indices) lies on the disc.
     fn point(&self, i: f32, j: f32) -> Vec2 {
         let (i, j) = (self.lo.0 as f32 + i, self.lo.1 as f32 + j);
-        on_disc(self.disc.cap.reach, self.cells, i, j)
+        on_disc(self.disc.cap.reach, self.rim, self.cells, i, j)
     }
 
     /// The chords of `target`'s curve (on the disc) and the rays cast to
@@ -274,7 +303,7 @@ impl Grid {
             }
             // A zero, not a jump of φ (where the leaving ray's receiver
             // changes, say): the bracket's values have shrunk with it.
-            let zero = lo.1.abs() + hi.1.abs() <= 1e-3 * (fa.abs() + fb.abs());
+            let zero = lo.1.abs() + hi.1.abs() <= ZERO_SHRINK * (fa.abs() + fb.abs());
             zero.then(|| a + (b - a) * (0.5 * (lo.0 + hi.0)))
         };
         let across: Vec<Option<Vec2>> = (0..=nj)
