@@ -107,10 +107,10 @@ const MAX_CELLS: usize = 4096;
 /// scale of the scene, not of the image: a small image's few pixels per
 /// disc gave cells too coarse for the curves in it (a loop inside one
 /// cell, two crossings on one side), and their pixels got no boundary
-/// term at all. On S1's scene at 32×32 pixels, where the mirror's and the glass's
-/// discs are 5–8 pixels across, moving the mirror, the glass or the
-/// camera passed on 98.5–98.9 % of the pixels with cells of a quarter
-/// pixel; with at least 128 across, on 99.3–99.7 %.
+/// term at all. On S1's scene at 32×32 pixels, where the mirror's and
+/// the glass's discs are 5–8 pixels across, moving the mirror, the glass
+/// or the camera passed on 98.5–98.9 % of the pixels with cells of a
+/// quarter pixel; with at least 128 across, on 99.3–99.7 %.
 const MIN_CELLS: usize = 128;
 
 /// Cells across the coarse grid that says whether a chain is seen at all.
