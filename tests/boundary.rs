@@ -842,10 +842,9 @@ fn edges_seen_in_a_flat_mirror_are_in_the_full_derivative() {
 /// runs closer to it than the jump's offset (10⁻³ pixel) its samples are
 /// refused, since one side would see past the mirror. Before the rim
 /// zones were sampled on the sphere (`diff::rim`) the interior
-/// derivative's heavy tail at the rim
-/// inflated those pixels' standard errors and they passed (0.995 and
-/// 0.991), while 256 renders against 48 reference seeds read the radius's
-/// image mean 17 % low (z −3.4).
+/// derivative's heavy tail at the rim inflated those pixels' standard
+/// errors and they passed (0.995 and 0.991), while 256 renders against
+/// 48 reference seeds read the radius's image mean 17 % low (z −3.4).
 #[test]
 fn edges_seen_in_a_curved_mirror_are_in_the_full_derivative() {
     let mirror = "color = [0.9, 0.9, 0.9]\ndiffuse = 0.1\nreflectivity = 0.8";
