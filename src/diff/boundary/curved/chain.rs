@@ -238,7 +238,15 @@ pub(super) fn leaving<R: Real>(
 /// [`leaving`]): `None` where a ray along it meets another primitive
 /// first, or the wrong face of a smooth one (the outside where it enters
 /// or reflects, the inside where a ray through glass goes on).
-pub(super) fn trace(scene: &Scene, (x, y): (f32, f32), chain: &Chain) -> Option<Trace> {
+pub(super) fn trace(scene: &Scene, xy: (f32, f32), chain: &Chain) -> Option<Trace> {
+    traced(scene, xy, chain).ok()
+}
+
+/// [`trace`], or where it is cut off: whether at a sphere or an
+/// ellipsoid after the chain's first curved step (its ray passes that
+/// object's rim, or something in front of it; a refracted ray's total
+/// internal reflection counts too).
+pub(super) fn traced(scene: &Scene, (x, y): (f32, f32), chain: &Chain) -> Result<Trace, CutOff> {
     let max = scene.settings.max_distance;
     let expected = chain.expected(scene);
     let mut found = Trace {
@@ -251,23 +259,46 @@ pub(super) fn trace(scene: &Scene, (x, y): (f32, f32), chain: &Chain) -> Option<
         let prim = &scene.prims[p as usize];
         (ShapeR::of(prim), View::material(scene, prim.object).ior)
     };
-    let (o, d) = leaving(
+    let mut reached = 0;
+    let left = leaving(
         &scene.camera.frame(),
         size,
         (x, y),
         chain,
         shape,
         |i, ray| {
+            reached = i;
             let hit = scene.intersect(&ray.value(), max, &mut NoStats)?;
             let (prim, face) = expected[i];
             let ok = hit.prim == prim && face.map_or(true, |f| hit.front_face == f);
             found.hits[i] = ok.then_some(hit);
             found.hits[i]
         },
-    )?;
+    );
+    let Some((o, d)) = left else {
+        // The step whose hit `reached` is.
+        let mut hits = 0;
+        let step = chain.steps().iter().position(|s| {
+            hits += s.hits();
+            hits > reached
+        });
+        let first = chain.first_curved(scene);
+        let later_curved = step.zip(first).is_some_and(|(k, f)| {
+            let shape = &scene.prims[chain.steps()[k].prim() as usize].shape;
+            k > f && !matches!(shape, Shape::Plane(_))
+        });
+        return Err(CutOff { later_curved });
+    };
     found.out = (o, d);
     found.next = scene.intersect(&Ray::new(o.value(), d.value()), max, &mut NoStats);
-    Some(found)
+    Ok(found)
+}
+
+/// Where a film point's rays stop following a chain ([`traced`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CutOff {
+    /// At a sphere or an ellipsoid after the chain's first curved step.
+    pub(super) later_curved: bool,
 }
 
 #[cfg(test)]
