@@ -299,11 +299,12 @@ impl Grid {
     /// the rim closer than a cell lies in these cells only: S1's mirror,
     /// seen through its glass, shows the floor in its own shadow up to a
     /// tenth of a pixel from its rim (at 320×320 pixels), and moving the
-    /// mirror's radius read +0.20 in the 10×10 pixels there without it,
-    /// against −0.22 from central differences ([`REFINE_LEVELS`]). Cells
-    /// cut off elsewhere (a plane's horizon, something in front of the
-    /// first curved object) are not refined: with 5 levels, refining them
-    /// too cost another 0.6 s of the boundary term on S1 at 32×32 pixels.
+    /// mirror's radius read +0.16 in the 10×10 pixels there without it
+    /// (mean of four seeds), against −0.22 from central differences
+    /// ([`REFINE_LEVELS`]). Cells cut off elsewhere (a plane's horizon,
+    /// something in front of the first curved object) are not refined:
+    /// with 5 levels, refining them too cost another 0.6 s of the boundary
+    /// term on S1 at 32×32 pixels.
     fn refine(&self, scene: &Scene, stats: &mut BoundaryStats) -> Vec<Leaf> {
         let (ni, nj) = self.n;
         let corners_of = |i: usize, j: usize| {

@@ -123,10 +123,13 @@ const MIN_CELLS: usize = 128;
 /// at the studies' sizes. On S1's scene at 320×320 pixels (`jitter:8`),
 /// moving the mirror's radius, the boundary term in the 10×10 pixels
 /// where the mirror's rim seen through the glass shows the floor in the
-/// mirror's own shadow reads −0.15 with no refinement, −0.35 with 3
-/// levels, −0.40 with 4 and −0.45 with 5; the whole derivative there,
-/// −0.23 with 4 levels against −0.22 from central differences (and the
-/// image mean 4.24·10⁻³ ± 3.5·10⁻⁴ against 4.16·10⁻³; 4.81·10⁻³ without).
+/// mirror's own shadow reads −0.17 with no refinement, −0.35 with 3
+/// levels, −0.40 with 4 and −0.45 with 5 (one seed). Over four seeds,
+/// the whole derivative there reads −0.12 with 4 levels and +0.16
+/// without, against −0.22 from central differences (the rest is the
+/// interior term's heavy tail: rim zones are not sampled through glass),
+/// and the image mean 4.63·10⁻³ against 4.82·10⁻³ without and 4.16·10⁻³
+/// from central differences (S1's contacts hold most of the rest).
 /// Cost, at S1's 32×32 pixels in `tests/boundary.rs`: the boundary term
 /// takes about 0.6 s with none, 1.0 s with 4 levels and 1.1 s with 5,
 /// and that file's S1 test 85, 150 and 220 s.
