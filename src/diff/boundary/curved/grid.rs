@@ -159,9 +159,10 @@ pub(super) struct Grid {
     lo: (usize, usize),
     n: (usize, usize),
     points: Vec<Result<Trace, CutOff>>,
-    /// The window's cells where some corners follow the chain and others
-    /// do not, refined ([`Grid::refine`]): the sub-cells whose corners
-    /// all follow it.
+    /// Per cell of the window (index j·n.0 + i), whether it is refined
+    /// ([`Grid::refine`]), and the refined cells' sub-cells whose corners
+    /// all follow the chain.
+    refined: Vec<bool>,
     leaves: Vec<Leaf>,
 }
 
@@ -284,9 +285,10 @@ impl Grid {
             lo,
             n,
             points,
+            refined: Vec::new(),
             leaves: Vec::new(),
         };
-        grid.leaves = grid.refine(scene, stats);
+        (grid.refined, grid.leaves) = grid.refine(scene, stats);
         Some(grid)
     }
 
@@ -305,15 +307,19 @@ impl Grid {
     /// something in front of the first curved object) are not refined:
     /// with 5 levels, refining them too cost another 0.6 s of the boundary
     /// term on S1 at 32×32 pixels.
-    fn refine(&self, scene: &Scene, stats: &mut BoundaryStats) -> Vec<Leaf> {
+    fn refine(&self, scene: &Scene, stats: &mut BoundaryStats) -> (Vec<bool>, Vec<Leaf>) {
         let (ni, nj) = self.n;
         let corners_of = |i: usize, j: usize| {
             [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)]
                 .map(|(a, b)| self.points[b * (ni + 1) + a])
         };
+        let refined: Vec<bool> = (0..nj)
+            .flat_map(|j| (0..ni).map(move |i| (i, j)))
+            .map(|(i, j)| at_rim(&corners_of(i, j)))
+            .collect();
         let cells: Vec<(usize, usize)> = (0..nj)
             .flat_map(|j| (0..ni).map(move |i| (i, j)))
-            .filter(|&(i, j)| at_rim(&corners_of(i, j)))
+            .filter(|&(i, j)| refined[j * ni + i])
             .collect();
         let found: Vec<(Vec<Leaf>, u64)> = cells
             .par_iter()
@@ -337,7 +343,7 @@ impl Grid {
             stats.light_rays += self.disc.chain.rays() * traced;
             leaves.extend(l);
         }
-        leaves
+        (refined, leaves)
     }
 
     /// The cell at `at` (grid indices) of side `side`, with the rays at
@@ -488,9 +494,7 @@ impl Grid {
             for i in 0..ni {
                 // A cell cut off at a later curved object's rim is found
                 // in its leaves.
-                let corners = [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)]
-                    .map(|(a, b)| self.points[b * (ni + 1) + a]);
-                if at_rim(&corners) {
+                if self.refined[j * ni + i] {
                     continue;
                 }
                 let sides = [
