@@ -15,11 +15,13 @@ venv's Python. What it does:
    (`raylab render SCENE --integrator path:K --sampler random:SPP --accel bvh
    --width W --height H --rr-depth off --threads T`, wall clock from process
    start to end, plus the render time raylab prints) and Mitsuba's variants
-   (`scalar_rgb`, `llvm_ad_rgb`: one warm-up render, which for LLVM includes
-   compiling the kernels into an empty kernel cache, then timed renders).
-   The timed runs go round-robin (raylab, scalar, LLVM, raylab, ...) so that
-   a change in the machine's load hits every tool alike; the table gives the
-   median of each.
+   (`scalar_rgb`, `llvm_ad_rgb`, and `llvm_ad_rgb@avx2`, the LLVM variant
+   held to AVX2's 8 lanes, raylab's SIMD width, where Dr.Jit would use
+   AVX-512's 16: one warm-up render, which for LLVM includes compiling the
+   kernels into an empty kernel cache, then timed renders).
+   The timed runs go round-robin (raylab, scalar, LLVM, LLVM at AVX2,
+   raylab, ...) so that a change in the machine's load hits every tool
+   alike; the table gives the median of each.
 3. Compares the images: the mean RGB of raylab's EXR against the mean of
    Mitsuba's renders (per channel, whole image and halves: a mirrored camera
    or a missing wall shows there), with the Monte Carlo standard error of
@@ -349,6 +351,37 @@ def thread_cpu_seconds() -> dict[str, float]:
     return out
 
 
+# Instruction sets an LLVM variant can be held to (`VARIANT@ISA`): LLVM's
+# CPU name, its features, and the lanes per kernel instruction. Dr.Jit picks
+# the widest the CPU has (16 lanes with AVX-512); `avx2` holds it to the
+# 8 lanes raylab's SIMD code uses, so that the two compare at equal width.
+LLVM_ISAS = {
+    "avx2": ("haswell", "+sse4.2,+avx,+avx2,+fma,+f16c,+bmi,+bmi2,+lzcnt,+popcnt", 8),
+}
+
+
+def set_llvm_isa(dr, isa: str) -> dict:
+    """Hold Dr.Jit's LLVM back end to `isa` (empty: leave its own choice) and
+    say what it compiles for. Dr.Jit's Python API does not expose the setter,
+    so it is called in its core library (C++ names of Dr.Jit 1.x)."""
+    import ctypes
+    lib = ctypes.CDLL(str(Path(dr.__file__).parent / "libdrjit-core.so"))
+    try:
+        set_target = lib["_Z19jit_llvm_set_targetPKcS0_j"]
+        get_cpu = lib["_Z19jit_llvm_target_cpuv"]
+        get_features = lib["_Z24jit_llvm_target_featuresv"]
+        get_width = lib["_Z21jit_llvm_vector_widthv"]
+    except AttributeError as e:
+        die(f"this Dr.Jit ({dr.__version__}) lacks the LLVM target functions bench-peers uses: {e}")
+    get_cpu.restype = get_features.restype = ctypes.c_char_p
+    get_width.restype = ctypes.c_uint32
+    if isa:
+        cpu, features, width = LLVM_ISAS[isa]
+        set_target(cpu.encode(), features.encode(), ctypes.c_uint32(width))
+    return {"isa": isa or "native", "cpu": (get_cpu() or b"").decode(),
+            "features": (get_features() or b"").decode(), "vector_width": get_width()}
+
+
 def worker(variant: str, spec_path: str, threads: int, image_out: str) -> None:
     import drjit as dr
     import mitsuba as mi
@@ -358,7 +391,9 @@ def worker(variant: str, spec_path: str, threads: int, image_out: str) -> None:
         sys.stdout.write(PROTOCOL + json.dumps(obj) + "\n")
         sys.stdout.flush()
 
+    variant, _, isa = variant.partition("@")
     mi.set_variant(variant)
+    llvm = set_llvm_isa(dr, isa) if variant.startswith("llvm") else None
     mi.set_log_level(mi.LogLevel.Warn)
     # Dr.Jit's thread pool (nanothread) runs both the scalar variant's
     # render blocks and the LLVM variant's kernels.
@@ -368,7 +403,7 @@ def worker(variant: str, spec_path: str, threads: int, image_out: str) -> None:
     scene = mi.load_dict(mitsuba_dict(spec, mi))
     load_s = time.perf_counter() - t0
     reply({"ready": True, "load_s": load_s, "threads": dr.thread_count(),
-           "mitsuba": mi.__version__, "drjit": dr.__version__})
+           "mitsuba": mi.__version__, "drjit": dr.__version__, "llvm_target": llvm})
     total, n = None, 0
     sq = None
     threads_before = thread_cpu_seconds()
@@ -558,8 +593,10 @@ def main() -> None:
     ap.add_argument("--bounces", type=int, default=4, help="raylab path:K (default 4 = Mitsuba max_depth 6)")
     ap.add_argument("--width", type=int, default=128)
     ap.add_argument("--height", type=int, default=128)
-    ap.add_argument("--variants", default="scalar_rgb,llvm_ad_rgb",
-                    help="Mitsuba variants (default scalar_rgb,llvm_ad_rgb)")
+    ap.add_argument("--variants", default="scalar_rgb,llvm_ad_rgb,llvm_ad_rgb@avx2",
+                    help="Mitsuba variants (default scalar_rgb,llvm_ad_rgb,llvm_ad_rgb@avx2); "
+                         "an LLVM variant with @avx2 is held to AVX2's 8 lanes, raylab's SIMD width "
+                         "(without it Dr.Jit uses the widest the CPU has: 16 lanes with AVX-512)")
     ap.add_argument("--one-sided-light", action="store_true",
                     help="give Mitsuba one-sided emitters only (raylab's are two-sided; by default "
                          "Mitsuba gets reversed copies of the emitting triangles to match)")
@@ -593,8 +630,14 @@ def main() -> None:
     args.scene = args.scene.resolve()
     variants = [v for v in args.variants.split(",") if v]
     for v in variants:
-        if v not in mi.variants():
-            die(f"Mitsuba variant {v!r} is not in this build (it has {', '.join(mi.variants())})")
+        name, at, isa = v.partition("@")
+        if name not in mi.variants():
+            die(f"Mitsuba variant {name!r} is not in this build (it has {', '.join(mi.variants())})")
+        if at and not (name.startswith("llvm") and isa in LLVM_ISAS):
+            die(f"--variants: {v!r}: only LLVM variants take @ISA, and ISA is one of "
+                f"{', '.join(LLVM_ISAS)}")
+        if variants.count(v) > 1:
+            die(f"--variants: {v!r} is named twice")
 
     tmp = Path(tempfile.mkdtemp(prefix="raylab-bench-peers."))
     try:
@@ -633,6 +676,8 @@ def run(args, variants, tmp: Path, mi, dr, np) -> None:
         w = Worker(v, spec_path, args.threads, tmp / f"{v}.npy", env)
         info[v] = w.read()
         workers[v] = w
+        if t := info[v].get("llvm_target"):
+            print(f"mitsuba {v}: LLVM kernels for {t['cpu']}, {t['vector_width']} lanes")
     rl_cmd = raylab_command(args, tmp / "raylab.exr")
     print(f"raylab: {' '.join(rl_cmd)}")
 
@@ -681,14 +726,15 @@ def run(args, variants, tmp: Path, mi, dr, np) -> None:
         s["cpu_per_wall"] = s["cpu_s"] / s["wall_s"]
     rl = summary["raylab"]
     print()
-    print(f"{'':22} {'median s':>9} {'runs (s)':>24} {'render s':>9} {'CPU s':>7} {'CPU/wall':>8} "
+    name_w = max(len(t) for t in tools)
+    print(f"{'':{name_w}} {'median s':>9} {'runs (s)':>24} {'render s':>9} {'CPU s':>7} {'CPU/wall':>8} "
           f"{'Msamples/s':>10} {'warm-up s':>9} {'raylab/this':>11} {'(CPU s)':>7}")
     for t in tools:
         s = summary[t]
         runs_s = " ".join(f"{x:.2f}" for x in s["wall_runs"])
         ratio = "" if t == "raylab" else f"{rl['wall_s'] / s['wall_s']:.2f}"
         ratio_cpu = "" if t == "raylab" else f"{rl['cpu_s'] / s['cpu_s']:.2f}"
-        print(f"{t:22} {s['wall_s']:9.3f} {runs_s:>24} {s['render_s']:9.3f} {s['cpu_s']:7.2f} "
+        print(f"{t:{name_w}} {s['wall_s']:9.3f} {runs_s:>24} {s['render_s']:9.3f} {s['cpu_s']:7.2f} "
               f"{s['cpu_per_wall']:8.2f} {s['msamples_per_s']:10.2f} {s['warmup_s']:9.2f} {ratio:>11} "
               f"{ratio_cpu:>7}")
         if t != "raylab":

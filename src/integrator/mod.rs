@@ -259,6 +259,9 @@ where
         .pixels
         .par_chunks_mut(cam.width as usize)
         .enumerate()
+        // One row per task: rayon otherwise runs runs of rows that nobody
+        // can steal from once started, and rows differ in cost.
+        .with_max_len(1)
         .map(|(py, row)| {
             let mut out = RowOutput {
                 total: S::default(),

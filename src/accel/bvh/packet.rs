@@ -88,7 +88,11 @@ struct Lanes<const L: usize> {
 /// over the lanes (4-wide SSE, or 8-wide AVX2 inside the AVX2 traversal);
 /// each lane's operations are the scalar test's, in its order.
 #[inline(always)]
-fn lanes<const L: usize>(pk: &TriPacket<L>, r: &PreparedRay, t_max: f32) -> Option<Lanes<L>> {
+fn lanes<const L: usize, const AVX2: bool>(
+    pk: &TriPacket<L>,
+    r: &PreparedRay,
+    t_max: f32,
+) -> Option<Lanes<L>> {
     let (kx, ky, kz) = (r.kx, r.ky, r.kz);
     let o = r.ray.origin;
     let (ox, oy, oz) = (o[kx], o[ky], o[kz]);
@@ -101,8 +105,9 @@ fn lanes<const L: usize>(pk: &TriPacket<L>, r: &PreparedRay, t_max: f32) -> Opti
         t_scaled: [0.0; L],
         hit: 0,
     };
-    let mut zero = [false; L];
-    let mut miss = [false; L];
+    // Lane masks, all ones where true (what a SIMD comparison yields).
+    let mut zero = [0u32; L];
+    let mut miss = [0u32; L];
     for i in 0..L {
         // Vertex `p` relative to the ray origin, sheared.
         let sheared = |p: &[[f32; L]; 3]| {
@@ -115,7 +120,7 @@ fn lanes<const L: usize>(pk: &TriPacket<L>, r: &PreparedRay, t_max: f32) -> Opti
         let u = cx * by - cy * bx;
         let v = ax * cy - ay * cx;
         let w = bx * ay - by * ax;
-        zero[i] = (u == 0.0) | (v == 0.0) | (w == 0.0);
+        zero[i] = lane_mask((u == 0.0) | (v == 0.0) | (w == 0.0));
         let negative = (u < 0.0) | (v < 0.0) | (w < 0.0);
         let positive = (u > 0.0) | (v > 0.0) | (w > 0.0);
         let det = u + v + w;
@@ -124,27 +129,52 @@ fn lanes<const L: usize>(pk: &TriPacket<L>, r: &PreparedRay, t_max: f32) -> Opti
         let forward = det > 0.0;
         let reject_forward = forward & ((t_scaled <= 0.0) | (t_scaled >= limit));
         let reject_backward = !forward & ((t_scaled >= 0.0) | (t_scaled <= limit));
-        miss[i] = (negative & positive) | (det == 0.0) | reject_forward | reject_backward;
+        miss[i] =
+            lane_mask((negative & positive) | (det == 0.0) | reject_forward | reject_backward);
         out.v[i] = v;
         out.w[i] = w;
         out.det[i] = det;
         out.t_scaled[i] = t_scaled;
     }
     let valid = pk.valid();
-    if bits(&zero) & valid != 0 {
+    if bits::<L, AVX2>(&zero) & valid != 0 {
         return None;
     }
-    out.hit = !bits(&miss) & valid;
+    out.hit = !bits::<L, AVX2>(&miss) & valid;
     Some(out)
 }
 
-/// Bit i set where lane i is true.
+/// All ones where `b`, as a SIMD comparison leaves a lane.
 #[inline(always)]
-fn bits<const L: usize>(lanes: &[bool; L]) -> u32 {
-    lanes
-        .iter()
+fn lane_mask(b: bool) -> u32 {
+    0u32.wrapping_sub(u32::from(b))
+}
+
+/// Bit i set where lane i of `m` is all ones: one `movmskps` on x86-64 (the
+/// 8-lane one with `AVX2`, for which the caller vouches for the CPU),
+/// otherwise a loop. Packing the lanes' bits by shifts and ors costs a
+/// dozen instructions per mask, which a leaf test pays twice.
+#[inline(always)]
+#[allow(unused_unsafe)] // the intrinsics are safe to call from Rust 1.87 on
+fn bits<const L: usize, const AVX2: bool>(m: &[u32; L]) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{
+            _mm256_loadu_ps, _mm256_movemask_ps, _mm_loadu_ps, _mm_movemask_ps,
+        };
+        if L == 4 {
+            // SAFETY: SSE is part of x86-64; `m` holds 4 lanes of 4 bytes.
+            return unsafe { _mm_movemask_ps(_mm_loadu_ps(m.as_ptr().cast())) } as u32;
+        }
+        if L == 8 && AVX2 {
+            // SAFETY: the caller vouches for AVX2 (which implies AVX); `m`
+            // holds 8 lanes of 4 bytes.
+            return unsafe { _mm256_movemask_ps(_mm256_loadu_ps(m.as_ptr().cast())) } as u32;
+        }
+    }
+    m.iter()
         .enumerate()
-        .fold(0, |m, (i, &b)| m | (u32::from(b) << i))
+        .fold(0, |acc, (i, &x)| acc | ((x & 1) << i))
 }
 
 /// The scalar test's last step for one lane ([`Triangle::finish`]): its
@@ -156,9 +186,10 @@ fn accept<const L: usize>(l: &Lanes<L>, i: usize, t_max: f32) -> Option<PrimHit>
 
 /// Closest hit among the packets of one leaf, as [`closest_of`] over its
 /// triangles in slot order would find it. `tris` and `indices` are the
-/// tree's leaf-ordered triangles and scene indices.
+/// tree's leaf-ordered triangles and scene indices; with `AVX2` the caller
+/// vouches that the CPU has AVX2.
 #[inline(always)]
-pub fn closest_in_packets<S: Stats, const L: usize>(
+pub fn closest_in_packets<S: Stats, const L: usize, const AVX2: bool>(
     packets: &[TriPacket<L>],
     tris: &[Triangle],
     indices: &[u32],
@@ -169,7 +200,7 @@ pub fn closest_in_packets<S: Stats, const L: usize>(
 ) {
     for pk in packets {
         let slot = pk.slot as usize;
-        let Some(l) = lanes(pk, ray, *t_max) else {
+        let Some(l) = lanes::<L, AVX2>(pk, ray, *t_max) else {
             let range = slot..slot + pk.lanes as usize;
             let ids = indices[range.clone()].iter().copied();
             closest_of(ids.zip(&tris[range]), ray, t_max, best, stats);
@@ -190,9 +221,10 @@ pub fn closest_in_packets<S: Stats, const L: usize>(
 }
 
 /// Whether any triangle of the packets is hit in (0, t_max), stopping at
-/// the first packet with a hit, as [`any_of`] decides it.
+/// the first packet with a hit, as [`any_of`] decides it (`AVX2` as for
+/// [`closest_in_packets`]).
 #[inline(always)]
-pub fn any_in_packets<S: Stats, const L: usize>(
+pub fn any_in_packets<S: Stats, const L: usize, const AVX2: bool>(
     packets: &[TriPacket<L>],
     tris: &[Triangle],
     ray: &PreparedRay,
@@ -201,7 +233,7 @@ pub fn any_in_packets<S: Stats, const L: usize>(
 ) -> bool {
     for pk in packets {
         let slot = pk.slot as usize;
-        let Some(l) = lanes(pk, ray, t_max) else {
+        let Some(l) = lanes::<L, AVX2>(pk, ray, t_max) else {
             if any_of(
                 tris[slot..slot + pk.lanes as usize].iter(),
                 ray,
@@ -240,11 +272,14 @@ mod tests {
     /// partly filled packets.
     #[test]
     fn packets_match_the_scalar_loops_bit_for_bit() {
-        check::<4>();
-        check::<8>();
+        check::<4, false>();
+        check::<8, false>();
+        if super::super::has_avx2() {
+            check::<8, true>();
+        }
     }
 
-    fn check<const L: usize>() {
+    fn check<const L: usize, const AVX2: bool>() {
         let mut rng = SplitMix64(19);
         let (mut hits, mut exact) = (0, 0);
         for case in 0..4000 {
@@ -292,7 +327,7 @@ mod tests {
             let ids = indices.iter().copied();
             closest_of(ids.zip(&tris), &ray, &mut t_s, &mut best_s, &mut st_s);
             let (mut t_p, mut best_p, mut st_p) = (t_max, None, Counters::default());
-            closest_in_packets(
+            closest_in_packets::<_, L, AVX2>(
                 &packets,
                 &tris,
                 &indices,
@@ -308,11 +343,15 @@ mod tests {
             assert_eq!(t_s.to_bits(), t_p.to_bits(), "{L} lanes, case {case}");
             assert_eq!(st_s, st_p, "{L} lanes, case {case}");
             hits += usize::from(best_s.is_some());
-            exact += usize::from(packets.iter().any(|pk| lanes(pk, &ray, t_max).is_none()));
+            exact += usize::from(
+                packets
+                    .iter()
+                    .any(|pk| lanes::<L, AVX2>(pk, &ray, t_max).is_none()),
+            );
 
             let (mut a_s, mut a_p) = (Counters::default(), Counters::default());
             let any_s = any_of(tris.iter(), &ray, t_max, &mut a_s);
-            let any_p = any_in_packets(&packets, &tris, &ray, t_max, &mut a_p);
+            let any_p = any_in_packets::<_, L, AVX2>(&packets, &tris, &ray, t_max, &mut a_p);
             assert_eq!(any_s, any_p, "{L} lanes, case {case}");
             assert_eq!(a_s, a_p, "{L} lanes, case {case}");
         }

@@ -281,7 +281,7 @@ where
 
     /// Test one leaf; see [`test_leaf`] for the contract.
     #[inline(always)]
-    fn test_leaf<S: Stats, const ANY_HIT: bool>(
+    fn test_leaf<S: Stats, const ANY_HIT: bool, const AVX2: bool>(
         &self,
         leaf: Ref,
         ray: &PreparedRay,
@@ -297,9 +297,9 @@ where
             let first = leaf.first as usize;
             let packets = &self.packets[first..first + (leaf.count as usize).div_ceil(W)];
             if ANY_HIT {
-                return any_in_packets(packets, tris, ray, *t_max, stats);
+                return any_in_packets::<S, W, AVX2>(packets, tris, ray, *t_max, stats);
             }
-            closest_in_packets(packets, tris, &self.indices, ray, t_max, best, stats);
+            closest_in_packets::<S, W, AVX2>(packets, tris, &self.indices, ray, t_max, best, stats);
             return false;
         }
         let range = leaf.first as usize..(leaf.first + leaf.count) as usize;
@@ -337,7 +337,7 @@ where
         loop {
             stats.node_visit();
             if cur.count > 0 {
-                if self.test_leaf::<S, ANY_HIT>(cur, ray, &mut t_max, best, stats) {
+                if self.test_leaf::<S, ANY_HIT, AVX2>(cur, ray, &mut t_max, best, stats) {
                     return true;
                 }
             } else {
