@@ -761,6 +761,7 @@ def run(args, variants, tmp: Path, mi, dr, np) -> None:
 
     # The images.
     comparisons, all_ok = {}, True
+    var_w = max([12] + [len(v) for v in variants])
     print()
     print(f"mean RGB, raylab (seed 0) vs Mitsuba (mean of its {args.runs + 1} renders); "
           "rel = Mitsuba/raylab − 1, z = difference / Monte Carlo standard error")
@@ -774,10 +775,10 @@ def run(args, variants, tmp: Path, mi, dr, np) -> None:
             rel = " ".join(f"{100 * x:+.2f}%" for x in c["rel_diff"])
             z = " ".join(f"{x:+.1f}" for x in c["z"])
             flag = "ok" if c["agree"] else "DIFFERENT"
-            print(f"  {v:12} {name:11} raylab {fmt(c['raylab'])}  mitsuba {fmt(c['mitsuba'])}  "
+            print(f"  {v:{var_w}} {name:11} raylab {fmt(c['raylab'])}  mitsuba {fmt(c['mitsuba'])}  "
                   f"rel {rel}  z {z}  {flag}")
         vr = " ".join(f"{x:.2f}" for x in cmp["image"]["variance_ratio"])
-        print(f"  {v:12} pixel variance at {args.spp} spp, Mitsuba/raylab (R G B): {vr} "
+        print(f"  {v:{var_w}} pixel variance at {args.spp} spp, Mitsuba/raylab (R G B): {vr} "
               f"(Mitsuba's from the spread of {args.runs + 1} renders: rough)")
 
     if args.out:
