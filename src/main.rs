@@ -52,8 +52,10 @@ enum Command {
     /// the change of which surface a sample sees when a parameter moves
     /// geometry (positions, radii, transforms, the camera, light
     /// positions). By default (`--visibility full`) the boundary term is
-    /// added: edge sampling of the silhouettes, horizons and shadow edges
-    /// the camera sees (under Whitted, in mirrors and through glass too) and,
+    /// added: edge sampling of the silhouettes, horizons, shadow edges and
+    /// curves where surfaces pass through each other (spheres and
+    /// ellipsoids through planes, spheres through spheres) that the
+    /// camera sees (under Whitted, in mirrors and through glass too) and,
     /// under `direct` and `path:K`, those every path vertex sees. Not
     /// covered: meshes seen in curved mirrors or through glass.
     /// `--check fd` measures the difference against central finite

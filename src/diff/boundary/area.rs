@@ -85,7 +85,7 @@ pub(super) fn at_vertex<const K: usize>(
     let xv = x.value();
     // The silhouettes seen from x (of everything but x's own primitive),
     // chosen on values; only the chosen one is built on dual numbers.
-    let picks = candidates(scene, edges, xv, found.prim, false, |_| true);
+    let picks = candidates(scene, (edges, &[]), xv, found.prim, false, |_| true);
     let xf = V3::<f32>::from_vec3(xv);
     // The cones round the emitters seen from x. The shadow rays start at
     // o, at most `slack` from x ([`crate::shape::OFFSET_SCALE`]); the

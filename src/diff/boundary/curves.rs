@@ -1,8 +1,11 @@
 //! The curves in 3-D along which what a viewpoint sees changes: the
 //! silhouettes of spheres and ellipsoids (exact: circles and ellipses, not
-//! tessellations) and the silhouette and crease edges of triangle meshes,
-//! as functions of the parameters ([`Real`]).
+//! tessellations), the silhouette and crease edges of triangle meshes,
+//! planes' horizons and the curves where a sphere or an ellipsoid passes
+//! through a plane or two spheres through each other, as functions of the
+//! parameters ([`Real`]).
 
+use super::meeting::meeting;
 use crate::camera::Frame;
 use crate::math::{orthonormal_basis_r, Real, Vec3, M3, V3};
 use crate::scene::Scene;
@@ -228,15 +231,19 @@ pub fn horizon<R: Real>(frame: &Frame<R>, normal: V3<R>) -> Option<Curve<R>> {
 pub enum Pick {
     Smooth(u32),
     Edge(usize),
+    /// Where two primitives pass through each other ([`meeting`]).
+    Meeting(u32, u32),
 }
 
 /// The curves along which what `o` sees changes, other than those of
 /// primitive `own` (the surface `o` lies on): silhouettes of spheres and
-/// ellipsoids and the mesh edges that matter ([`edge_matters`], creases
-/// with `creases`), of the objects `include` accepts.
+/// ellipsoids, the mesh edges that matter ([`edge_matters`], creases
+/// with `creases`) and the curves where the pairs `meetings` pass through
+/// each other ([`super::meeting::meeting_pairs`]), of the objects
+/// `include` accepts.
 pub fn candidates(
     scene: &Scene,
-    edges: &[Edge],
+    (edges, meetings): (&[Edge], &[(u32, u32)]),
     o: Vec3,
     own: u32,
     creases: bool,
@@ -259,6 +266,15 @@ pub fn candidates(
             picks.push(Pick::Edge(i));
         }
     }
+    // A meeting curve lies on both surfaces: from a point on either it is
+    // behind that surface or in its tangent plane.
+    let object = |prim: u32| scene.prims[prim as usize].object;
+    picks.extend(
+        meetings
+            .iter()
+            .filter(|&&(a, b)| a != own && b != own && (include(object(a)) || include(object(b))))
+            .map(|&(a, b)| Pick::Meeting(a, b)),
+    );
     picks
 }
 
@@ -273,6 +289,7 @@ pub fn build<R: Real>(
 ) -> Option<Curve<R>> {
     match pick {
         Pick::Smooth(prim) => smooth_silhouette(&geometry(prim), o),
+        Pick::Meeting(a, b) => meeting(&geometry(a), &geometry(b)),
         Pick::Edge(i) => Some(edge_curve(&edges[i], |prim, corner| match geometry(prim) {
             ShapeR::Triangle { p } => p[corner],
             _ => unreachable!("mesh edges join triangles"),

@@ -122,9 +122,15 @@ pub(super) fn landed(
     ((py * width + px) as usize, ctx)
 }
 
-/// The offset of [`jump`] for a film normal `(nx, ny)` of length `len`.
-pub(super) fn offset((nx, ny): (f32, f32), len: f32) -> (f32, f32) {
-    (OFFSET_PX * nx / len, OFFSET_PX * ny / len)
+/// The offset of [`jump`] for a film normal `(nx, ny)` of length `len`:
+/// [`OFFSET_PX`] along it.
+pub(super) fn offset(normal: (f32, f32), len: f32) -> (f32, f32) {
+    offset_by(normal, len, OFFSET_PX)
+}
+
+/// `eps` pixels along the film normal `(nx, ny)` of length `len`.
+pub(super) fn offset_by((nx, ny): (f32, f32), len: f32, eps: f32) -> (f32, f32) {
+    (eps * nx / len, eps * ny / len)
 }
 
 /// One pixel's running sums.
