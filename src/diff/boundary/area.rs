@@ -51,7 +51,8 @@
 //! the BRDF share is the direction term's.
 
 use super::angles::{ByAngle, Cone};
-use super::curves::{build, candidates, Edge};
+use super::curves::Edge;
+use super::pick::{build, candidates};
 use super::{behind, BoundaryStats};
 use crate::diff::view::DualScene;
 use crate::math::{Dual, RayR, Real, Vec3, V3};

@@ -129,6 +129,7 @@ pub mod curves;
 mod film;
 pub mod meeting;
 pub mod mirror;
+pub mod pick;
 pub(crate) mod sums;
 pub mod vertex;
 

@@ -82,10 +82,9 @@
 
 use super::angles::ByAngle;
 use super::area;
-use super::curves::{
-    build, candidates, edge_matters, mesh_edges, smooth_silhouette, Curve, Edge, Pick,
-};
+use super::curves::{edge_matters, mesh_edges, smooth_silhouette, Curve, Edge};
 use super::meeting::{meeting_band, meeting_pairs};
+use super::pick::{build, candidates, Pick};
 use super::{behind, is_geometric, shadow_point, Boundary, BoundaryStats};
 use crate::diff::params::Param;
 use crate::diff::view::DualScene;
