@@ -89,8 +89,8 @@ const RGSS: [(u32, u32); 4] = [(1, 0), (3, 1), (2, 3), (0, 2)];
 
 /// The largest grid side (`ogss:K`, `jitter:K`) and sample count
 /// (`random:N`, `halton:N`, `sobol:N`) accepted: typo guards.
-const MAX_K: u32 = 64;
-const MAX_N: u32 = 4096;
+const MAX_K: u32 = 256;
+const MAX_N: u32 = 65536;
 
 /// 2⁻³², turning a 32-bit fraction into [0, 1).
 const INV_2_32: f32 = 1.0 / 4_294_967_296.0;
@@ -483,6 +483,8 @@ mod tests {
         for (text, spp, name) in [
             ("rgss", 4, "rgss"),
             ("jitter:3", 9, "jitter3"),
+            ("jitter:256", 65536, "jitter256"),
+            ("random:65536", 65536, "random65536"),
             ("random:7", 7, "random7"),
             ("halton:16", 16, "halton16"),
             ("sobol:32", 32, "sobol32"),
@@ -496,7 +498,7 @@ mod tests {
             "sobol:0",
             "halton:x",
             "random:99999",
-            "jitter:65",
+            "jitter:257",
             "rgss:4",
             "poisson:4",
             "adaptive:-1",
