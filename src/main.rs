@@ -53,13 +53,11 @@ enum Command {
     /// geometry (positions, radii, transforms, the camera, light
     /// positions). By default (`--visibility full`) the boundary term is
     /// added: edge sampling of the silhouettes, horizons, shadow edges and
-    /// curves where surfaces pass through each other (spheres and
-    /// ellipsoids through planes, spheres through spheres) that the
-    /// camera sees (under Whitted, in mirrors and through glass too) and,
-    /// under `direct` and `path:K`, those every path vertex sees. Not
-    /// covered: meshes seen in curved mirrors or through glass.
-    /// `--check fd` measures the difference against central finite
-    /// differences.
+    /// meetings of surfaces (spheres and ellipsoids through planes, spheres
+    /// through spheres) the camera sees (under Whitted, in mirrors and
+    /// through glass too) and, under `direct` and `path:K`, those every
+    /// path vertex sees. Not covered: meshes seen in curved mirrors or
+    /// through glass. `--check fd` compares with central differences.
     Grad(GradArgs),
     /// Recover scene parameters from an image: gradient descent (Adam or
     /// plain) on a loss between renders and a target.
