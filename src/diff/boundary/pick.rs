@@ -10,8 +10,9 @@ use crate::scene::Scene;
 use crate::shape::{Shape, ShapeR};
 
 /// A curve seen from a shading point, chosen on values before it is built
-/// on dual numbers: a smooth primitive's silhouette or a mesh edge (an
-/// index into [`super::curves::mesh_edges`]).
+/// on dual numbers: a smooth primitive's silhouette, a mesh edge (an
+/// index into [`super::curves::mesh_edges`]) or the curve where two
+/// primitives meet.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pick {
     Smooth(u32),
