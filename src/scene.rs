@@ -223,6 +223,9 @@ impl Scene {
         stats: &mut S,
     ) -> Option<(u32, PrimHit)> {
         let mut best = self.accel.intersect(&self.prims, ray, t_max, stats);
+        if self.unbounded.is_empty() {
+            return best;
+        }
         let mut t = best.map_or(t_max, |(_, h)| h.t);
         crate::accel::brute::closest_in(
             &self.prims,
@@ -254,7 +257,6 @@ impl Scene {
     /// Build the full hit record for primitive `id` hit at `h`.
     pub fn hit_details(&self, ray: &Ray, id: u32, h: &PrimHit) -> Hit {
         let prim = &self.prims[id as usize];
-        let point = ray.at(h.t);
         let outward = prim.outward_normal(ray, h);
         let mut shading = outward;
         if let Shape::Triangle(tri) = &prim.shape {
@@ -273,17 +275,7 @@ impl Scene {
                 }
             }
         }
-        let front_face = outward.dot(ray.dir) < 0.0;
-        let sign = if front_face { 1.0 } else { -1.0 };
-        Hit {
-            t: h.t,
-            point,
-            geometric_normal: sign * outward,
-            shading_normal: sign * shading,
-            prim: id,
-            object: prim.object,
-            front_face,
-        }
+        Hit::oriented(ray, h.t, outward, shading, id, prim.object)
     }
 
     /// The material of a hit's object.

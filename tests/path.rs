@@ -302,3 +302,95 @@ fn integrator_names_parse_and_bad_ones_explain() {
     let e = IntegratorKind::parse("path:x").unwrap_err();
     assert!(e.contains("0..="), "{e}");
 }
+
+/// The Cornell box at `width` × `height` pixels and `spp` random samples.
+fn cornell_wh(width: u32, height: u32, spp: u32) -> Scene {
+    let mut s = cornell(width, spp);
+    s.camera.height = height;
+    s
+}
+
+/// Films equal bit for bit: every pixel's count, mean and M2.
+fn assert_same_film(a: &Film, b: &Film, what: &str) {
+    assert_eq!(a.pixels.len(), b.pixels.len(), "{what}");
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        let bits = |s: &raylab::film::PixelStats| {
+            (
+                s.count,
+                s.mean.to_array().map(f32::to_bits),
+                s.m2.to_array().map(f32::to_bits),
+            )
+        };
+        assert_eq!(bits(p), bits(q), "{what}: pixel {i} differs");
+    }
+}
+
+// The lanes path tracer (groups of 16 samples in lockstep, the renders'
+// path for scenes it supports) performs the one-sample loop's operations
+// in the same order on the same numbers: same film bit for bit, same
+// counters. 9 × 7 pixels at 5 spp puts group borders inside pixels and
+// rows; the cases cover every strategy, roulette on and off, direct only,
+// point lights beside area lights.
+#[test]
+fn lanes_render_the_one_sample_loops_image_bit_for_bit() {
+    use raylab::integrator::lanes;
+    let strategies = [
+        (4, None, LightStrategy::Mis),
+        (4, Some(1), LightStrategy::Mis),
+        (0, Some(3), LightStrategy::Mis),
+        (2, Some(2), LightStrategy::LightOnly),
+        (2, Some(2), LightStrategy::BsdfOnly),
+    ];
+    let rooms = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/leak-rooms.toml");
+    let small = Overrides {
+        width: Some(6),
+        height: Some(5),
+        sampler: Some(Sampler::Random { n: 3 }),
+        ..Overrides::default()
+    };
+    // The box's point light, made one the path tracer uses.
+    let mut lit = cornell_wh(5, 4, 3);
+    for l in &mut lit.lights {
+        l.whitted_only = false;
+    }
+    let scenes = [
+        ("cornell", cornell_wh(9, 7, 5)),
+        ("cornell, point light", lit),
+        ("leak-rooms", load_scene(&rooms, &small).unwrap()),
+    ];
+    for (name, scene) in &scenes {
+        for (bounces, rr_start, strategy) in strategies {
+            let p = PathTracer {
+                max_bounces: bounces,
+                rr_start,
+                strategy,
+            };
+            let what = format!("{name}, path:{bounces}, rr {rr_start:?}, {strategy:?}");
+            assert!(lanes::supported(scene, &p), "{what}: not supported");
+            let (a, ca): (Film, Counters) = render(scene, &p, Some(2));
+            let (b, cb): (Film, Counters) = lanes::render(scene, &p, Some(2));
+            assert_same_film(&a, &b, &what);
+            assert_eq!(ca, cb, "{what}: counters");
+        }
+        // The CLI's way in (`IntegratorKind::render`) takes the lanes.
+        let kind = IntegratorKind::parse("path:3").unwrap();
+        let (a, _): (Film, NoStats) = kind.render(scene, Some(1)).unwrap();
+        let (b, _): (Film, NoStats) = render(scene, &kind.path_tracer().unwrap(), Some(1));
+        assert_same_film(&a, &b, name);
+    }
+}
+
+// Renders the lanes do not cover take the one-sample loop: quadrics,
+// filters wider than the box.
+#[test]
+fn lanes_decline_what_they_do_not_cover() {
+    use raylab::integrator::lanes;
+    let p = PathTracer::new(2);
+    assert!(lanes::supported(&cornell(4, 1), &p));
+    let s1 = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/s1-spheres.toml");
+    let s1 = load_scene(&s1, &Overrides::default()).unwrap();
+    assert!(!lanes::supported(&s1, &p), "spheres");
+    let mut tent = cornell(4, 1);
+    tent.settings.filter = raylab::film::Filter::Tent;
+    assert!(!lanes::supported(&tent, &p), "tent filter");
+}

@@ -13,6 +13,7 @@
 
 pub mod adaptive;
 pub mod floodfill;
+pub mod lanes;
 pub mod path;
 pub mod progress;
 pub mod whitted;
@@ -165,7 +166,11 @@ impl IntegratorKind {
                 let p = self
                     .path_tracer()
                     .expect("direct and path are path tracers");
-                render(scene, &p, threads)
+                if lanes::supported(scene, &p) {
+                    lanes::render(scene, &p, threads)
+                } else {
+                    render(scene, &p, threads)
+                }
             }
             Self::FloodFill(_) => self.prepare(scene)?.frame(scene, threads)?,
         })

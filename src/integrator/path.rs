@@ -42,6 +42,11 @@
 //! and β is divided by q when it does: E[β'] = q·β/q = β, so the estimator
 //! stays unbiased (Arvo & Kirk 1990).
 //!
+//! **Lanes.** `direct` and `path:K` renders of scenes of triangles run
+//! this estimator over groups of samples in lockstep ([`super::lanes`]),
+//! bit for bit: the functions below are what it calls, per lane or over
+//! the lanes.
+//!
 //! **Random numbers.** Vertex i of sample j of pixel (x, y) draws from a
 //! SplitMix64 stream keyed by (seed, pixel, j, i); its k-th number is
 //! dimension k: light choice, two for the light point, two for the BRDF
@@ -103,11 +108,11 @@ impl PathTracer {
 }
 
 /// Numbers drawn per vertex (see the module docs).
-const DIMS_PER_VERTEX: usize = 6;
+pub(crate) const DIMS_PER_VERTEX: usize = 6;
 
 /// The random numbers of vertex `bounce` of the sample `ctx`.
 #[inline]
-fn vertex_numbers(ctx: &SampleContext, bounce: u32) -> [f32; DIMS_PER_VERTEX] {
+pub(crate) fn vertex_numbers(ctx: &SampleContext, bounce: u32) -> [f32; DIMS_PER_VERTEX] {
     // A salt keeps these streams apart from the pixel sampler's, which are
     // keyed by (seed, pixel, sample index) through the same hash.
     const PATH_SALT: u64 = 0x7061_7468_7472_6163; // "pathtrac"
@@ -373,7 +378,7 @@ impl PathTracer {
 
     /// The weight of emission `le` found at `next` by a BRDF-sampled ray of
     /// direction `wi` and density `pdf_brdf`.
-    fn brdf_hit_weight<V: View>(
+    pub(crate) fn brdf_hit_weight<V: View>(
         &self,
         view: &V,
         next: &HitR<V::R>,

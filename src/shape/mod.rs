@@ -122,6 +122,32 @@ impl Hit {
         }
     }
 
+    /// The hit of primitive `prim` (of scene object `object`) at distance
+    /// `t` along `ray`, whose outward and shading normals there are
+    /// `outward` and `shading`: both normals turned to the side the ray
+    /// came from.
+    #[inline(always)]
+    pub fn oriented(
+        ray: &Ray,
+        t: f32,
+        outward: Vec3,
+        shading: Vec3,
+        prim: u32,
+        object: u32,
+    ) -> Hit {
+        let front_face = outward.dot(ray.dir) < 0.0;
+        let sign = if front_face { 1.0 } else { -1.0 };
+        Hit {
+            t,
+            point: ray.at(t),
+            geometric_normal: sign * outward,
+            shading_normal: sign * shading,
+            prim,
+            object,
+            front_face,
+        }
+    }
+
     /// The origin of a ray leaving the hit in direction `dir`: the point
     /// offset by [`OFFSET_SCALE`] to the side `dir` points to.
     #[inline]
