@@ -381,15 +381,24 @@ fn lanes_render_the_one_sample_loops_image_bit_for_bit() {
 }
 
 // Renders the lanes do not cover take the one-sample loop: quadrics,
-// filters wider than the box.
+// filters wider than the box; `lanes::render` hands them over itself.
 #[test]
 fn lanes_decline_what_they_do_not_cover() {
     use raylab::integrator::lanes;
     let p = PathTracer::new(2);
     assert!(lanes::supported(&cornell(4, 1), &p));
     let s1 = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/s1-spheres.toml");
-    let s1 = load_scene(&s1, &Overrides::default()).unwrap();
+    let tiny = Overrides {
+        width: Some(8),
+        height: Some(6),
+        ..Overrides::default()
+    };
+    let s1 = load_scene(&s1, &tiny).unwrap();
     assert!(!lanes::supported(&s1, &p), "spheres");
+    // Asked anyway, they hand the render to the one-sample loop.
+    let (a, _): (Film, NoStats) = lanes::render(&s1, &p, Some(1));
+    let (b, _): (Film, NoStats) = render(&s1, &p, Some(1));
+    assert_same_film(&a, &b, "S1");
     let mut tent = cornell(4, 1);
     tent.settings.filter = raylab::film::Filter::Tent;
     assert!(!lanes::supported(&tent, &p), "tent filter");

@@ -1,8 +1,8 @@
 //! The path tracer run on groups of [`LANES`] samples at once: the same
 //! estimator as [`PathTracer`], with the same random numbers and the same
 //! `f32` operations in the same order, so every sample's value is its value
-//! there bit for bit (`tests/render.rs` compares whole images byte for
-//! byte). What changes is the order of the work: the group's paths advance
+//! there bit for bit (`tests/path.rs` compares whole films and counters
+//! bit for bit). What changes is the order of the work: the group's paths advance
 //! in lockstep, one vertex at a time, and each step's arithmetic runs over
 //! arrays with one entry per path, which the compiler turns into SIMD
 //! instructions over the lanes (compiled a second time with AVX2 where the
@@ -66,15 +66,17 @@ pub fn supported(scene: &Scene, tracer: &PathTracer) -> bool {
         && !matches!(scene.settings.sampler, Sampler::Adaptive { .. })
 }
 
-/// Render `scene` with `tracer` over groups of [`LANES`] samples; the
-/// caller has checked [`supported`]. The film and totals are those of
-/// [`super::render`] with the same tracer, bit for bit.
+/// Render `scene` with `tracer`: over groups of [`LANES`] samples where
+/// [`supported`], else with the one-sample loop ([`super::render`]). The
+/// film and totals are that loop's, bit for bit.
 pub fn render<S: RenderStats>(
     scene: &Scene,
     tracer: &PathTracer,
     threads: Option<usize>,
 ) -> (Film, S) {
-    debug_assert!(supported(scene, tracer));
+    if !supported(scene, tracer) {
+        return super::render(scene, tracer, threads);
+    }
     let normals = outward_normals(scene);
     let lanes = Lanes {
         scene,
@@ -105,14 +107,15 @@ pub fn render<S: RenderStats>(
 }
 
 /// Each triangle's unit outward normal ([`crate::shape::Triangle::normal`],
-/// as [`Scene::hit_details`] computes it at every hit), by primitive.
+/// as [`Scene::hit_details`] computes it at every hit), by primitive (zero
+/// for other shapes, which [`supported`] keeps out).
 fn outward_normals(scene: &Scene) -> Vec<Vec3> {
     scene
         .prims
         .iter()
         .map(|p| match &p.shape {
             Shape::Triangle(t) => t.normal(),
-            _ => unreachable!("`supported` admits triangles only"),
+            _ => Vec3::ZERO,
         })
         .collect()
 }
@@ -386,8 +389,9 @@ fn vertex<S: Stats>(
             continue;
         }
         if below[i] {
-            // Below the true surface (only with interpolated normals); the
-            // scalar loop ends before multiplying β, which no longer matters.
+            // The scalar loop's check (a zero cosine, or a direction below
+            // the geometric surface): the path ends there, before β is
+            // multiplied, which no longer matters.
             paths.end(i);
             continue;
         }

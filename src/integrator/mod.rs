@@ -166,11 +166,8 @@ impl IntegratorKind {
                 let p = self
                     .path_tracer()
                     .expect("direct and path are path tracers");
-                if lanes::supported(scene, &p) {
-                    lanes::render(scene, &p, threads)
-                } else {
-                    render(scene, &p, threads)
-                }
+                // Over groups of samples where the lanes cover the scene.
+                lanes::render(scene, &p, threads)
             }
             Self::FloodFill(_) => self.prepare(scene)?.frame(scene, threads)?,
         })
