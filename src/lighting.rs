@@ -127,32 +127,57 @@ pub fn lambert_area_sample<V: View, S: Stats>(
     mis: bool,
     stats: &mut S,
 ) -> V3<V::R> {
-    let n = hit.shading_normal;
-    let to = s.point - hit.point;
+    let geometric = hit.geometric_normal.value();
+    let t = lambert_area_terms(hit.point, hit.shading_normal, geometric, s, mis);
+    if !(t.lit && visible(view.scene(), &hit.hit, t.wi.value(), s.point.value(), stats)) {
+        return V3::zero();
+    }
+    t.value
+}
+
+/// [`lambert_area_sample`] before its shadow ray, at a surface point
+/// `point` with shading normal `n` and geometric normal `geometric`.
+#[derive(Clone, Copy, Debug)]
+pub struct AreaTerms<R> {
+    /// Unit direction to the light point.
+    pub wi: V3<R>,
+    /// Whether the sample counts if the light point is visible: it lies in
+    /// front of both normals, the light faces the point, and its density
+    /// in solid angle is positive and finite.
+    pub lit: bool,
+    /// Its estimate when it counts and is visible.
+    pub value: V3<R>,
+}
+
+/// The terms of [`lambert_area_sample`] (computed whether or not the
+/// sample counts; `lit` says). The path tracer's lanes call it on every
+/// lane at once.
+#[inline(always)]
+pub fn lambert_area_terms<R: Real>(
+    point: V3<R>,
+    n: V3<R>,
+    geometric: Vec3,
+    s: &AreaSampleR<R>,
+    mis: bool,
+) -> AreaTerms<R> {
+    let to = s.point - point;
     let d2 = to.length_squared();
     let wi = to / d2.sqrt();
     let cos_x = n.dot(wi);
     let cos_l = s.normal.dot(wi).abs();
-    if cos_x.value() <= 0.0
-        || hit.geometric_normal.value().dot(wi.value()) <= 0.0
-        || cos_l.value() <= 0.0
-    {
-        return V3::zero();
-    }
+    let facing = cos_x.value() > 0.0 && geometric.dot(wi.value()) > 0.0 && cos_l.value() > 0.0;
     let pdf_light = shading::area_to_solid_angle(s.pdf_area, d2, cos_l);
     let p = pdf_light.value();
-    if !(p > 0.0
-        && p.is_finite()
-        && visible(view.scene(), &hit.hit, wi.value(), s.point.value(), stats))
-    {
-        return V3::zero();
-    }
     let w = if mis {
         shading::power_heuristic(pdf_light, shading::cosine_pdf(cos_x))
     } else {
-        V::R::one()
+        R::one()
     };
-    shading::lambert_light_sample(s.emission, cos_x, w, pdf_light)
+    AreaTerms {
+        wi,
+        lit: facing && p > 0.0 && p.is_finite(),
+        value: shading::lambert_light_sample(s.emission, cos_x, w, pdf_light),
+    }
 }
 
 /// The direct light a surface at `p` with unit normal `n` receives, over

@@ -33,13 +33,15 @@ use super::path::{vertex_numbers, LightStrategy, PathTracer, DIMS_PER_VERTEX};
 use super::{in_pool, progress, SampleContext};
 use crate::accel::Accel;
 use crate::film::{Film, Filter, PixelStats};
-use crate::lighting::{lambert_point_lights, LightModel};
-use crate::math::{cosine_hemisphere, max_abs, orthonormal_basis_r, Color, Ray, V3};
+use crate::light::AreaSampleR;
+use crate::lighting::{lambert_area_terms, lambert_point_lights, LightModel};
+use crate::math::{cosine_hemisphere, orthonormal_basis_r, Color, Ray, V3};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::shading::{area_to_solid_angle, cosine_pdf, lambert_light_sample, power_heuristic};
+use crate::shading::cosine_pdf;
+use crate::shape::smooth::offset_origin;
 use crate::shape::triangle::NO_MESH;
-use crate::shape::{Hit, HitR, PreparedRay, Shape, OFFSET_SCALE};
+use crate::shape::{segment_to, Hit, HitR, PreparedRay, Shape};
 use crate::stats::{RayKind, RenderStats, Stats};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -451,14 +453,7 @@ impl Geometry {
     /// [`HitR::spawn_origin`] for lane `i`.
     #[inline(always)]
     fn spawn_origin(&self, i: usize, dir: V3<f32>) -> V3<f32> {
-        let p = get(&self.point, i);
-        let eps = OFFSET_SCALE * max_abs(p.into()).max(1.0);
-        let n = get(&self.geometric, i);
-        if n.dot(dir) >= 0.0 {
-            p + n * eps
-        } else {
-            p - n * eps
-        }
+        offset_origin(get(&self.point, i), get(&self.geometric, i), dir)
     }
 }
 
@@ -502,32 +497,22 @@ fn light_sample<S: Stats>(
     let mut shadow_dir: V = [[0.0; LANES]; 3];
     let mut shadow_len: F = [0.0; LANES];
     for i in 0..LANES {
-        let (p, n) = (get(&g.point, i), get(&g.shading, i));
-        let to = get(&sp, i) - p;
-        let d2 = to.length_squared();
-        let wi = to / d2.sqrt();
-        let cos_x = n.dot(wi);
-        let cos_l = get(&sn, i).dot(wi).abs();
-        let facing = cos_x > 0.0 && get(&g.geometric, i).dot(wi) > 0.0 && cos_l > 0.0;
-        let pdf_light = area_to_solid_angle(pdf_area[i], d2, cos_l);
-        lit[i] = sampled[i] && facing && pdf_light > 0.0 && pdf_light.is_finite();
-        // The shadow segment (`Hit::shadow_segment`).
-        let origin = g.spawn_origin(i, wi);
-        let to_target = get(&sp, i) - origin;
-        let len = to_target.length();
-        set(&mut shadow_origin, i, origin);
-        set(&mut shadow_dir, i, to_target / len);
-        shadow_len[i] = len * (1.0 - OFFSET_SCALE);
-        let w = if mis {
-            power_heuristic(pdf_light, cosine_pdf(cos_x))
-        } else {
-            1.0
+        let s = AreaSampleR {
+            point: get(&sp, i),
+            normal: get(&sn, i),
+            emission: get(&se, i),
+            pdf_area: pdf_area[i],
         };
-        set(
-            &mut value,
-            i,
-            lambert_light_sample(get(&se, i), cos_x, w, pdf_light),
-        );
+        let geometric = get(&g.geometric, i).into();
+        let t = lambert_area_terms(get(&g.point, i), get(&g.shading, i), geometric, &s, mis);
+        lit[i] = sampled[i] && t.lit;
+        set(&mut value, i, t.value);
+        // The shadow segment (`Hit::shadow_segment`).
+        let origin = g.spawn_origin(i, t.wi);
+        let (shadow, len) = segment_to(origin.into(), get(&sp, i).into());
+        set(&mut shadow_origin, i, shadow.origin.into());
+        set(&mut shadow_dir, i, shadow.dir.into());
+        shadow_len[i] = len;
     }
     for i in 0..LANES {
         if !(paths.alive[i] && lit[i]) {

@@ -161,14 +161,21 @@ impl Hit {
     /// stops, ε short of the target. Every shadow ray is built here.
     #[inline]
     pub fn shadow_segment(&self, dir: Vec3, target: Vec3) -> (Ray, f32) {
-        let origin = self.spawn_origin(dir);
-        let to_target = target - origin;
-        let len = to_target.length();
-        (
-            Ray::new(origin, to_target / len),
-            len * (1.0 - OFFSET_SCALE),
-        )
+        segment_to(self.spawn_origin(dir), target)
     }
+}
+
+/// The shadow segment from `origin` (already offset from its surface) to
+/// `target`: a ray with a unit direction, and the distance at which it
+/// stops, ε short of the target ([`Hit::shadow_segment`]).
+#[inline(always)]
+pub fn segment_to(origin: Vec3, target: Vec3) -> (Ray, f32) {
+    let to_target = target - origin;
+    let len = to_target.length();
+    (
+        Ray::new(origin, to_target / len),
+        len * (1.0 - OFFSET_SCALE),
+    )
 }
 
 /// A shape's ray test as the accelerators run it: the nearest hit in

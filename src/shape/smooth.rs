@@ -254,20 +254,28 @@ impl<R: Real> HitR<R> {
     /// the side `dir` points to, by a constant ε).
     #[inline]
     pub fn spawn_origin(&self, dir: V3<R>) -> V3<R> {
-        let p = self.point.value();
-        let eps = R::from_f32(OFFSET_SCALE * max_abs(p).max(1.0));
-        let n = self.geometric_normal;
-        if n.value().dot(dir.value()) >= 0.0 {
-            self.point + n * eps
-        } else {
-            self.point - n * eps
-        }
+        offset_origin(self.point, self.geometric_normal, dir)
     }
 
     /// The `f32` point.
     #[inline(always)]
     pub fn point_value(&self) -> Vec3 {
         self.point.value()
+    }
+}
+
+/// The origin of a ray that leaves `point`, where the geometric normal is
+/// `n`, in direction `dir`: the point moved by ε = [`OFFSET_SCALE`] ·
+/// max(1, max|pᵢ|) along `n`, to the side `dir` points to. Every ray that
+/// leaves a surface starts here ([`HitR::spawn_origin`], and the path
+/// tracer's lanes).
+#[inline(always)]
+pub fn offset_origin<R: Real>(point: V3<R>, n: V3<R>, dir: V3<R>) -> V3<R> {
+    let eps = R::from_f32(OFFSET_SCALE * max_abs(point.value()).max(1.0));
+    if n.value().dot(dir.value()) >= 0.0 {
+        point + n * eps
+    } else {
+        point - n * eps
     }
 }
 
