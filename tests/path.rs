@@ -366,7 +366,7 @@ fn lanes_render_the_one_sample_loops_image_bit_for_bit() {
                 strategy,
             };
             let what = format!("{name}, path:{bounces}, rr {rr_start:?}, {strategy:?}");
-            assert!(lanes::supported(scene, &p), "{what}: not supported");
+            assert!(lanes::supported(scene), "{what}: not supported");
             let (a, ca): (Film, Counters) = render(scene, &p, Some(2));
             let (b, cb): (Film, Counters) = lanes::render(scene, &p, Some(2));
             assert_same_film(&a, &b, &what);
@@ -386,7 +386,7 @@ fn lanes_render_the_one_sample_loops_image_bit_for_bit() {
 fn lanes_decline_what_they_do_not_cover() {
     use raylab::integrator::lanes;
     let p = PathTracer::new(2);
-    assert!(lanes::supported(&cornell(4, 1), &p));
+    assert!(lanes::supported(&cornell(4, 1)));
     let s1 = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/s1-spheres.toml");
     let tiny = Overrides {
         width: Some(8),
@@ -394,12 +394,12 @@ fn lanes_decline_what_they_do_not_cover() {
         ..Overrides::default()
     };
     let s1 = load_scene(&s1, &tiny).unwrap();
-    assert!(!lanes::supported(&s1, &p), "spheres");
+    assert!(!lanes::supported(&s1), "spheres");
     // Asked anyway, they hand the render to the one-sample loop.
     let (a, _): (Film, NoStats) = lanes::render(&s1, &p, Some(1));
     let (b, _): (Film, NoStats) = render(&s1, &p, Some(1));
     assert_same_film(&a, &b, "S1");
     let mut tent = cornell(4, 1);
     tent.settings.filter = raylab::film::Filter::Tent;
-    assert!(!lanes::supported(&tent, &p), "tent filter");
+    assert!(!lanes::supported(&tent), "tent filter");
 }

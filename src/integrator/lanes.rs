@@ -54,10 +54,10 @@ type F = [f32; LANES];
 /// A vector per lane, one array per coordinate.
 type V = [F; 3];
 
-/// Whether [`render`] can run the path tracer `tracer` on `scene` (see the
-/// module docs for what it covers).
-pub fn supported(scene: &Scene, tracer: &PathTracer) -> bool {
-    let _ = tracer; // every strategy, bounce count and roulette setting
+/// Whether [`render`] runs the path tracer on `scene` over groups (any
+/// strategy, bounce count and roulette setting; see the module docs for
+/// which scenes).
+pub fn supported(scene: &Scene) -> bool {
     let triangles = scene.prims.iter().all(|p| match &p.shape {
         Shape::Triangle(t) => t.mesh == NO_MESH || scene.meshes[t.mesh as usize].normals.is_empty(),
         _ => false,
@@ -76,13 +76,14 @@ pub fn render<S: RenderStats>(
     tracer: &PathTracer,
     threads: Option<usize>,
 ) -> (Film, S) {
-    if !supported(scene, tracer) {
+    if !supported(scene) {
         return super::render(scene, tracer, threads);
     }
     let normals = outward_normals(scene);
     let lanes = Lanes {
         scene,
         normals: &normals,
+        point_lights: scene.lights.iter().any(|l| LightModel::Physical.sees(l)),
     };
     in_pool(threads, || {
         let cam = &scene.camera;
@@ -122,10 +123,12 @@ fn outward_normals(scene: &Scene) -> Vec<Vec3> {
         .collect()
 }
 
-/// What the groups read: the scene and its triangles' normals.
+/// What the groups read: the scene, its triangles' normals, and whether
+/// it has point lights the path tracer uses.
 struct Lanes<'a> {
     scene: &'a Scene,
     normals: &'a [Vec3],
+    point_lights: bool,
 }
 
 impl Lanes<'_> {
@@ -330,7 +333,6 @@ fn vertex<S: Stats>(
 ) {
     let scene = lanes.scene;
     let background: V3<f32> = scene.settings.background.into();
-    let point_lights = scene.lights.iter().any(|l| LightModel::Physical.sees(l));
     let mut u = [[0.0f32; LANES]; DIMS_PER_VERTEX];
     for i in 0..LANES {
         if !paths.alive[i] {
@@ -343,7 +345,7 @@ fn vertex<S: Stats>(
             continue;
         }
         set(&mut paths.albedo, i, albedo.into());
-        if point_lights {
+        if lanes.point_lights {
             // One shadow ray per light, as the scalar loop casts them.
             let light = lambert_point_lights(scene, &HitR::from(*hit), LightModel::Physical, stats);
             let c = get(&paths.beta, i) * get(&paths.albedo, i) * light;

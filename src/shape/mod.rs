@@ -158,7 +158,8 @@ impl Hit {
     /// The shadow segment from the hit towards `target` (`dir` is the unit
     /// direction to it, which picks the side to start on): a ray with a
     /// unit direction from the offset origin, and the distance at which it
-    /// stops, ε short of the target. Every shadow ray is built here.
+    /// stops, ε short of the target. Every shadow ray is built here or,
+    /// from an origin already offset, by [`segment_to`].
     #[inline]
     pub fn shadow_segment(&self, dir: Vec3, target: Vec3) -> (Ray, f32) {
         segment_to(self.spawn_origin(dir), target)
