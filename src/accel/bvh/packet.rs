@@ -11,7 +11,12 @@
 //! exactly rather than approximately:
 //! - an edge function that rounds to exactly zero is recomputed in `f64`
 //!   by the scalar test; a packet with such a lane is handed to the scalar
-//!   loop as a whole (it happens on edge-aimed rays, not in bulk);
+//!   loop as a whole (it happens on edge-aimed rays, not in bulk). So is a
+//!   packet with a NaN edge function, or three whose product underflows:
+//!   on the other lanes the edge functions are non-zero numbers, and two
+//!   of the scalar test's checks take fewer instructions in exact
+//!   equivalents (the sign test on the sign bits, the interval check for
+//!   a negative determinant as the positive one's on negated values);
 //! - the scalar closest-hit loop tests triangles one after another with
 //!   `t_max` shrinking as hits are found. The packet filters all lanes
 //!   against the `t_max` it starts with (a lane rejected then is rejected
@@ -81,7 +86,8 @@ struct Lanes<const L: usize> {
 }
 
 /// The watertight test on the `L` lanes, or `None` when a valid lane has
-/// an edge function of exactly zero (the scalar test's `f64` case).
+/// an edge function of exactly zero (the scalar test's `f64` case) or is
+/// otherwise odd (below).
 ///
 /// Written lane by lane over fixed-length arrays, with no branch in the
 /// loop, so that the compiler turns each line into one SIMD instruction
@@ -94,7 +100,7 @@ fn lanes<const L: usize, const AVX2: bool>(
     t_max: f32,
 ) -> Option<Lanes<L>> {
     let (kx, ky, kz) = (r.kx, r.ky, r.kz);
-    let o = r.ray.origin;
+    let o = r.ray.origin.to_array();
     let (ox, oy, oz) = (o[kx], o[ky], o[kz]);
     let s = r.shear;
     let (px, py, pz) = (&pk.p[0], &pk.p[1], &pk.p[2]);
@@ -106,7 +112,7 @@ fn lanes<const L: usize, const AVX2: bool>(
         hit: 0,
     };
     // Lane masks, all ones where true (what a SIMD comparison yields).
-    let mut zero = [0u32; L];
+    let mut odd = [0u32; L];
     let mut miss = [0u32; L];
     for i in 0..L {
         // Vertex `p` relative to the ray origin, sheared.
@@ -120,24 +126,35 @@ fn lanes<const L: usize, const AVX2: bool>(
         let u = cx * by - cy * bx;
         let v = ax * cy - ay * cx;
         let w = bx * ay - by * ax;
-        zero[i] = lane_mask((u == 0.0) | (v == 0.0) | (w == 0.0));
-        let negative = (u < 0.0) | (v < 0.0) | (w < 0.0);
-        let positive = (u > 0.0) | (v > 0.0) | (w > 0.0);
+        // The lanes left to the scalar test: an edge function of zero (which
+        // it redoes in f64), and so that the shortcuts below are exact,
+        // any NaN (or a product that underflows to zero). On the other
+        // lanes u, v and w are non-zero numbers, so:
+        // (`!(x > 0)` is true for NaN, which is the point.)
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        let odd_lane = !((u * v * w).abs() > 0.0);
+        odd[i] = lane_mask(odd_lane);
+        // - the scalar test's "some negative and some positive" is "the
+        //   signs differ";
+        let mixed = ((u.to_bits() ^ v.to_bits()) | (v.to_bits() ^ w.to_bits())) >> 31 != 0;
         let det = u + v + w;
         let t_scaled = u * az + v * bz + w * cz;
         let limit = t_max * det;
-        let forward = det > 0.0;
-        let reject_forward = forward & ((t_scaled <= 0.0) | (t_scaled >= limit));
-        let reject_backward = !forward & ((t_scaled >= 0.0) | (t_scaled <= limit));
-        miss[i] =
-            lane_mask((negative & positive) | (det == 0.0) | reject_forward | reject_backward);
+        // - its interval check for det < 0, (t ≥ 0 or t ≤ limit), is the
+        //   one for det > 0, (t ≤ 0 or t ≥ limit), on −t and −limit
+        //   (negation is exact); det = ±0 is a miss either way.
+        let flip = det.to_bits() & 0x8000_0000;
+        let t_signed = f32::from_bits(t_scaled.to_bits() ^ flip);
+        let limit_signed = f32::from_bits(limit.to_bits() ^ flip);
+        let outside = (t_signed <= 0.0) | (t_signed >= limit_signed);
+        miss[i] = lane_mask(mixed | (det == 0.0) | outside);
         out.v[i] = v;
         out.w[i] = w;
         out.det[i] = det;
         out.t_scaled[i] = t_scaled;
     }
     let valid = pk.valid();
-    if bits::<L, AVX2>(&zero) & valid != 0 {
+    if bits::<L, AVX2>(&odd) & valid != 0 {
         return None;
     }
     out.hit = !bits::<L, AVX2>(&miss) & valid;

@@ -42,7 +42,8 @@ impl<V: BoundingVolume> Bvh<V> {
         }
         // One pending sibling per level at most, and no tree is deeper than
         // MAX_DEPTH (the builders stop there).
-        let mut stack = Pending::<u32, { MAX_DEPTH as usize }>::new();
+        let mut slots = Pending::<u32, { MAX_DEPTH as usize }>::slots();
+        let mut stack = Pending::new(&mut slots);
         let mut node = 0usize;
         loop {
             stats.node_visit();
@@ -136,21 +137,28 @@ pub(super) fn test_leaf<S: Stats, const ANY_HIT: bool>(
     }
 }
 
-/// The traversal stack: pending (node, entry distance) pairs, at most `N`.
-/// Left uninitialised: the wide trees' capacity (7 siblings a level, 64
-/// levels) would otherwise cost a memset of kilobytes per ray.
-pub(super) struct Pending<T, const N: usize> {
-    items: [MaybeUninit<(T, f32)>; N],
+/// The traversal stack: pending (node, entry distance) pairs, at most `N`,
+/// in an array the caller lends ([`Pending::slots`]). Left uninitialised:
+/// the wide trees' capacity (7 siblings a level, 64 levels) would otherwise
+/// cost a memset of kilobytes per ray. The array lives apart from the
+/// length so that the length stays in a register (in one struct with the
+/// array, the compiler kept it in memory and reloaded it at every push).
+pub(super) struct Pending<'a, T, const N: usize> {
+    items: &'a mut [MaybeUninit<(T, f32)>; N],
     len: usize,
 }
 
-impl<T: Copy, const N: usize> Pending<T, N> {
+impl<'a, T: Copy, const N: usize> Pending<'a, T, N> {
+    /// Storage for a stack.
     #[inline(always)]
-    pub(super) fn new() -> Self {
-        Pending {
-            items: [const { MaybeUninit::uninit() }; N],
-            len: 0,
-        }
+    pub(super) fn slots() -> [MaybeUninit<(T, f32)>; N] {
+        [const { MaybeUninit::uninit() }; N]
+    }
+
+    /// An empty stack in `items`.
+    #[inline(always)]
+    pub(super) fn new(items: &'a mut [MaybeUninit<(T, f32)>; N]) -> Self {
+        Pending { items, len: 0 }
     }
 
     /// Push a node with its entry distance (panics past `N`, which the

@@ -332,7 +332,8 @@ where
             return false;
         }
         // Each level pushes at most W − 1 siblings.
-        let mut stack = Pending::<Ref, { 7 * MAX_DEPTH as usize }>::new();
+        let mut slots = Pending::<Ref, { 7 * MAX_DEPTH as usize }>::slots();
+        let mut stack = Pending::new(&mut slots);
         let mut cur = self.root;
         loop {
             stats.node_visit();
@@ -349,33 +350,36 @@ where
                 // The cap keeps the empty lanes out (module doc).
                 let (t, mut mask) = n.hit::<AVX2>(ray, t_max.min(f32::MAX));
                 if mask != 0 {
-                    // The hit children, nearest first (insertion sort; ties
-                    // keep child order).
-                    let mut hits = [(Ref { first: 0, count: 0 }, 0.0f32); W];
+                    // The hit children, nearest first, ties in child
+                    // order: sorted as keys of the entry distance's bits
+                    // above the child's index (distances are ≥ +0, whose
+                    // bits order as the numbers do). Insertion sort.
+                    let mut keys = [0u64; W];
                     let mut k = 0;
                     while mask != 0 {
-                        let i = mask.trailing_zeros() as usize;
+                        let i = mask.trailing_zeros();
                         mask &= mask - 1;
-                        let item = (
-                            Ref {
-                                first: n.first[i],
-                                count: n.count[i],
-                            },
-                            t[i],
-                        );
+                        let key = u64::from(t[i as usize].to_bits()) << 32 | u64::from(i);
                         let mut j = k;
-                        while j > 0 && hits[j - 1].1 > item.1 {
-                            hits[j] = hits[j - 1];
+                        while j > 0 && keys[j - 1] > key {
+                            keys[j] = keys[j - 1];
                             j -= 1;
                         }
-                        hits[j] = item;
+                        keys[j] = key;
                         k += 1;
                     }
+                    let child = |key: u64| {
+                        let i = key as u32 as usize;
+                        Ref {
+                            first: n.first[i],
+                            count: n.count[i],
+                        }
+                    };
                     // Push the farther ones, farthest first, and descend.
-                    for &(r, t) in hits[1..k].iter().rev() {
-                        stack.push(r, t);
+                    for &key in keys[1..k].iter().rev() {
+                        stack.push(child(key), f32::from_bits((key >> 32) as u32));
                     }
-                    cur = hits[0].0;
+                    cur = child(keys[0]);
                     continue;
                 }
             }
