@@ -128,9 +128,9 @@ fn lanes<const L: usize, const AVX2: bool>(
         let w = bx * ay - by * ax;
         // The lanes left to the scalar test: an edge function of zero (which
         // it redoes in f64), and so that the shortcuts below are exact,
-        // any NaN (or a product that underflows to zero). On the other
-        // lanes u, v and w are non-zero numbers, so:
-        // (`!(x > 0)` is true for NaN, which is the point.)
+        // any NaN (or a product that underflows to zero); `!(x > 0)` is
+        // true for NaN, which is the point. On the other lanes u, v and w
+        // are non-zero numbers, so:
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
         let odd_lane = !((u * v * w).abs() > 0.0);
         odd[i] = lane_mask(odd_lane);

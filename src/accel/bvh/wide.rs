@@ -352,14 +352,17 @@ where
                 if mask != 0 {
                     // The hit children, nearest first, ties in child
                     // order: sorted as keys of the entry distance's bits
-                    // above the child's index (distances are ≥ +0, whose
-                    // bits order as the numbers do). Insertion sort.
+                    // above the child's index. The distances are ≥ 0,
+                    // whose bits order as the numbers do once a −0 (which
+                    // a node test's max with 0 may leave where SIMD is not
+                    // used) has its sign bit cleared. Insertion sort.
                     let mut keys = [0u64; W];
                     let mut k = 0;
                     while mask != 0 {
                         let i = mask.trailing_zeros();
                         mask &= mask - 1;
-                        let key = u64::from(t[i as usize].to_bits()) << 32 | u64::from(i);
+                        let bits = t[i as usize].to_bits() & 0x7fff_ffff;
+                        let key = u64::from(bits) << 32 | u64::from(i);
                         let mut j = k;
                         while j > 0 && keys[j - 1] > key {
                             keys[j] = keys[j - 1];
