@@ -1,4 +1,7 @@
-//! Accelerator throughput on real meshes, printed as a table: Mrays/s of
+//! Accelerator throughput on real meshes and on the Cornell box (the scene
+//! `make bench-peers` path-traces: 36 triangles, one wide node over seven
+//! leaves, so what a ray costs is its fixed part: setting up, the node
+//! test, one or two leaves), printed as a table: Mrays/s of
 //! every BVH variant (`BvhConfig::all()`, `bvh4`, `bvh8`) and of brute force (smallest mesh
 //! only) for four kinds of ray, build times, the cost of `Counters` over
 //! `NoStats`, and the 1 → 2 thread speed-up of a full render.
@@ -114,6 +117,9 @@ fn main() {
             "data/scenes/chinese-dragon.toml",
         ),
         ("bunny00 (75 408)", "data/scenes/bunny.toml"),
+        // Issue 19's path-tracing scene: traversal where the tree is one
+        // node over seven leaves, so a ray's fixed costs dominate.
+        ("cornell-box (36 tris)", "data/scenes/cornell-box.toml"),
     ];
     if let Some(only) = &only_meshes {
         meshes.retain(|(name, _)| only.iter().any(|m| name.starts_with(m.as_str())));
