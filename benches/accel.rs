@@ -117,8 +117,7 @@ fn main() {
             "data/scenes/chinese-dragon.toml",
         ),
         ("bunny00 (75 408)", "data/scenes/bunny.toml"),
-        // Issue 19's path-tracing scene: traversal where the tree is one
-        // node over seven leaves, so a ray's fixed costs dominate.
+        // The scene `make bench-peers` path-traces (module doc).
         ("cornell-box (36 tris)", "data/scenes/cornell-box.toml"),
     ];
     if let Some(only) = &only_meshes {
