@@ -11,6 +11,12 @@
 //! sums. Traversal, the pixel sampler and camera, the random numbers, the
 //! emitter choice, the albedo and the cosine warp (it has a `sin` and a
 //! `cos`) stay one call per lane, to the one-sample loop's own functions.
+//! The groups' code is generic over the accelerator: with `bvh8` on a CPU
+//! with AVX2 it takes the tree's
+//! [`InlineAvx2`](crate::accel::bvh::InlineAvx2) view, whose traversal
+//! the compiler inlines into it (no call, no dispatch on the accelerator
+//! kind, the tree's pointers kept in registers across the lanes' loop),
+//! and with any other accelerator the scene's own.
 //!
 //! `make bench-peers` times it on the Cornell box beside Mitsuba 3
 //! (`analysis/results/bench-peers/` holds a run).
@@ -31,7 +37,7 @@
 
 use super::path::{vertex_numbers, LightStrategy, PathTracer, DIMS_PER_VERTEX};
 use super::{in_pool, progress, SampleContext};
-use crate::accel::Accel;
+use crate::accel::{Accel, Accelerator};
 use crate::film::{Film, Filter, PixelStats};
 use crate::light::AreaSampleR;
 use crate::lighting::{lambert_area_terms, lambert_point_lights, LightModel};
@@ -79,9 +85,26 @@ pub fn render<S: RenderStats>(
     if !supported(scene) {
         return super::render(scene, tracer, threads);
     }
+    if let Accelerator::Bvh8(bvh) = &scene.accel {
+        if let Some(inline) = bvh.inline_avx2() {
+            return render_with(scene, &inline, tracer, threads);
+        }
+    }
+    render_with(scene, &scene.accel, tracer, threads)
+}
+
+/// [`render`] with the scene's accelerator as `accel`, whose queries
+/// inline into the groups' code where `A` allows it.
+fn render_with<S: RenderStats, A: Accel>(
+    scene: &Scene,
+    accel: &A,
+    tracer: &PathTracer,
+    threads: Option<usize>,
+) -> (Film, S) {
     let normals = outward_normals(scene);
     let lanes = Lanes {
         scene,
+        accel,
         normals: &normals,
         point_lights: scene.lights.iter().any(|l| LightModel::Physical.sees(l)),
     };
@@ -123,15 +146,17 @@ fn outward_normals(scene: &Scene) -> Vec<Vec3> {
         .collect()
 }
 
-/// What the groups read: the scene, its triangles' normals, and whether
-/// it has point lights the path tracer uses.
-struct Lanes<'a> {
+/// What the groups read: the scene, its accelerator (the scene's own, or
+/// a view of it whose traversal inlines), its triangles' normals, and
+/// whether it has point lights the path tracer uses.
+struct Lanes<'a, A> {
     scene: &'a Scene,
+    accel: &'a A,
     normals: &'a [Vec3],
     point_lights: bool,
 }
 
-impl Lanes<'_> {
+impl<A: Accel> Lanes<'_, A> {
     /// [`Scene::intersect`] for the scenes [`supported`] admits: no
     /// unbounded primitives, triangles without interpolated normals, so
     /// the hit's normals are the stored outward one turned to the ray.
@@ -139,7 +164,7 @@ impl Lanes<'_> {
     fn intersect<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
         let s = self.scene;
         let pr = PreparedRay::new(*ray);
-        let (id, h) = s
+        let (id, h) = self
             .accel
             .intersect(&s.prims, &pr, s.settings.max_distance, stats)?;
         let n = self.normals[id as usize];
@@ -157,15 +182,15 @@ impl Lanes<'_> {
     #[inline(always)]
     fn occluded<S: Stats>(&self, ray: &Ray, t_max: f32, stats: &mut S) -> bool {
         let s = self.scene;
-        s.accel
+        self.accel
             .occluded(&s.prims, &PreparedRay::new(*ray), t_max, stats)
     }
 }
 
 /// One image row: its samples in the scalar loop's order, [`LANES`] at a
 /// time, each added to its pixel in that order.
-fn render_row<S: Stats>(
-    lanes: &Lanes,
+fn render_row<S: Stats, A: Accel>(
+    lanes: &Lanes<A>,
     tracer: &PathTracer,
     py: u32,
     row: &mut [PixelStats],
@@ -252,15 +277,15 @@ impl Paths {
 
 /// One group of samples to trace: the first `n` of `ctx` (the others
 /// repeat the last one and are not traced).
-struct Group<'a> {
-    lanes: &'a Lanes<'a>,
+struct Group<'a, A> {
+    lanes: &'a Lanes<'a, A>,
     tracer: &'a PathTracer,
     ctx: [SampleContext; LANES],
     n: usize,
 }
 
 /// The values of the group's samples.
-fn trace_group<S: Stats>(group: &Group, stats: &mut S) -> [Color; LANES] {
+fn trace_group<S: Stats, A: Accel>(group: &Group<A>, stats: &mut S) -> [Color; LANES] {
     #[cfg(target_arch = "x86_64")]
     if crate::accel::bvh::has_avx2() {
         // SAFETY: the CPU has AVX2.
@@ -276,12 +301,12 @@ fn trace_group<S: Stats>(group: &Group, stats: &mut S) -> [Color; LANES] {
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn trace_group_avx2<S: Stats>(group: &Group, stats: &mut S) -> [Color; LANES] {
+unsafe fn trace_group_avx2<S: Stats, A: Accel>(group: &Group<A>, stats: &mut S) -> [Color; LANES] {
     trace_group_in(group, stats)
 }
 
 #[inline(always)]
-fn trace_group_in<S: Stats>(group: &Group, stats: &mut S) -> [Color; LANES] {
+fn trace_group_in<S: Stats, A: Accel>(group: &Group<A>, stats: &mut S) -> [Color; LANES] {
     let Group {
         lanes,
         tracer,
@@ -323,8 +348,8 @@ fn trace_group_in<S: Stats>(group: &Group, stats: &mut S) -> [Color; LANES] {
 /// Vertex `bounce` of every live path: its light sample, its BRDF ray and
 /// what that ray finds (the scalar loop's `walk` body and `follow`).
 #[inline(always)]
-fn vertex<S: Stats>(
-    lanes: &Lanes,
+fn vertex<S: Stats, A: Accel>(
+    lanes: &Lanes<A>,
     tracer: &PathTracer,
     ctx: &[SampleContext; LANES],
     bounce: u32,
@@ -463,8 +488,8 @@ impl Geometry {
 /// over the lanes): the emitter point per lane, the geometry and weights
 /// over the lanes, the shadow ray per lane.
 #[inline(always)]
-fn light_sample<S: Stats>(
-    lanes: &Lanes,
+fn light_sample<S: Stats, A: Accel>(
+    lanes: &Lanes<A>,
     tracer: &PathTracer,
     g: &Geometry,
     u: &[F; DIMS_PER_VERTEX],

@@ -15,7 +15,7 @@ pub mod wide;
 
 pub use crate::math::Aabb;
 pub use volume::{BoundingEllipsoid, BoundingSphere, BoundingVolume};
-pub use wide::{has_avx2, Bvh4, Bvh8, WideBvh};
+pub use wide::{has_avx2, Bvh4, Bvh8, InlineAvx2, WideBvh};
 
 use super::Accel;
 use crate::shape::{PreparedRay, PrimArrays, PrimHit, Primitive};
