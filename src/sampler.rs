@@ -99,9 +99,7 @@ const INV_2_32: f32 = 1.0 / 4_294_967_296.0;
 /// constant for per-pixel values).
 fn stream(px: u32, py: u32, key: u64, seed: u64) -> SplitMix64 {
     let pixel = (u64::from(py) << 32) | u64::from(px);
-    SplitMix64(SplitMix64::mix(
-        seed ^ SplitMix64::mix(pixel ^ SplitMix64::mix(key)),
-    ))
+    SplitMix64(SplitMix64::keyed(seed, pixel, key))
 }
 
 /// Per-pixel randomisations use this key, which no sample index reaches.

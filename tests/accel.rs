@@ -211,7 +211,7 @@ fn check_against_brute_force(
             let mut s = NoStats;
             let blocked = accel.occluded(prims, r, f32::INFINITY, &mut s);
             blocked == want.is_some()
-                && want.map_or(true, |(_, t)| {
+                && want.is_none_or(|(_, t)| {
                     !accel.occluded(prims, r, t * (1.0 - 1e-5), &mut s)
                         && accel.occluded(prims, r, t * (1.0 + 1e-5), &mut s)
                 })
@@ -424,7 +424,7 @@ fn degenerate_inputs_build_and_answer() {
         // separate them by position; the builders must still terminate with
         // leaves within the limit and find the triangle.
         let mut many = vec![tri; 50];
-        many.extend(std::iter::repeat(point).take(50));
+        many.extend(std::iter::repeat_n(point, 50));
         let accel = Accelerator::build(kind, &many, all_ids(&many)).unwrap();
         check_accelerator_structure(&accel, &many, &config);
         let hit = accel.intersect(&many, &ray, f32::INFINITY, &mut NoStats);
@@ -444,7 +444,7 @@ fn degenerate_inputs_build_and_answer() {
             .intersect(&[tri], &ray, f32::INFINITY, &mut NoStats)
             .is_some_and(|(id, h)| id == 0 && (h.t - 5.0).abs() < 1e-6));
         let mut many = vec![tri; 50];
-        many.extend(std::iter::repeat(point).take(50));
+        many.extend(std::iter::repeat_n(point, 50));
         let accel = Accelerator::build(kind, &many, all_ids(&many)).unwrap();
         let hit = accel.intersect(&many, &ray, f32::INFINITY, &mut NoStats);
         assert!(hit.is_some_and(|(id, h)| id < 50 && (h.t - 5.0).abs() < 1e-6));

@@ -202,7 +202,7 @@ fn agree_with_brute_force(relative: &str, seed: u64) -> [usize; 5] {
     let ok = rays.par_iter().zip(&found).all(|(r, got)| {
         let mut s = NoStats;
         accel.occluded(&prims, r, f32::INFINITY, &mut s) == got.is_some()
-            && got.map_or(true, |(_, h)| {
+            && got.is_none_or(|(_, h)| {
                 let beyond = h.t * (1.0 + 1e-5);
                 !accel.occluded(&prims, r, h.t * (1.0 - 1e-5), &mut s)
                     && (beyond <= NODE_TMIN || accel.occluded(&prims, r, beyond, &mut s))

@@ -294,7 +294,7 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
         .runs
         .iter()
         .enumerate()
-        .filter(|(p, _)| dealt.as_ref().map_or(true, |d| Some(d[*p]) == opts.shard))
+        .filter(|(p, _)| dealt.as_ref().is_none_or(|d| Some(d[*p]) == opts.shard))
         .map(|(_, r)| r)
         .collect();
     let todo: Vec<_> = mine

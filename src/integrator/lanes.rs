@@ -8,9 +8,11 @@
 //! instructions over the lanes (compiled a second time with AVX2 where the
 //! CPU has it): the light sample's geometry and weights, the shading frame
 //! and BRDF direction, the rays' offset origins, the throughput and the
-//! sums. Traversal, the pixel sampler and camera, the random numbers, the
-//! emitter choice, the albedo and the cosine warp (it has a `sin` and a
-//! `cos`) stay one call per lane, to the one-sample loop's own functions.
+//! sums, and on a CPU with AVX-512 DQ the vertices' random numbers
+//! (SplitMix64's 64-bit multiplies, which AVX2 lacks). Traversal, the
+//! pixel sampler and camera, the random numbers elsewhere, the emitter
+//! choice, the albedo and the cosine warp (it has a `sin` and a `cos`)
+//! stay one call per lane, to the one-sample loop's own functions.
 //! The groups' code is generic over the accelerator: with `bvh8` on a CPU
 //! with AVX2 it takes the tree's
 //! [`InlineAvx2`](crate::accel::bvh::InlineAvx2) view, whose traversal
@@ -35,7 +37,7 @@
 // Lane loops index several per-lane arrays by the lane.
 #![allow(clippy::needless_range_loop)]
 
-use super::path::{vertex_numbers, LightStrategy, PathTracer, DIMS_PER_VERTEX};
+use super::path::{vertex_key, vertex_numbers, LightStrategy, PathTracer, DIMS_PER_VERTEX};
 use super::{in_pool, progress, SampleContext};
 use crate::accel::{Accel, Accelerator};
 use crate::film::{Film, Filter, PixelStats};
@@ -102,11 +104,16 @@ fn render_with<S: RenderStats, A: Accel>(
     threads: Option<usize>,
 ) -> (Film, S) {
     let normals = outward_normals(scene);
+    #[cfg(target_arch = "x86_64")]
+    let avx512 = avx512::available();
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx512 = false;
     let lanes = Lanes {
         scene,
         accel,
         normals: &normals,
         point_lights: scene.lights.iter().any(|l| LightModel::Physical.sees(l)),
+        avx512,
     };
     in_pool(threads, || {
         let cam = &scene.camera;
@@ -147,13 +154,17 @@ fn outward_normals(scene: &Scene) -> Vec<Vec3> {
 }
 
 /// What the groups read: the scene, its accelerator (the scene's own, or
-/// a view of it whose traversal inlines), its triangles' normals, and
-/// whether it has point lights the path tracer uses.
+/// a view of it whose traversal inlines), its triangles' normals, whether
+/// it has point lights the path tracer uses, and whether the CPU draws
+/// random numbers in AVX-512 lanes.
 struct Lanes<'a, A> {
     scene: &'a Scene,
     accel: &'a A,
     normals: &'a [Vec3],
     point_lights: bool,
+    /// Whether the vertices' random numbers are drawn 16 lanes at a time
+    /// ([`avx512::vertex_numbers`]).
+    avx512: bool,
 }
 
 impl<A: Accel> Lanes<'_, A> {
@@ -359,6 +370,11 @@ fn vertex<S: Stats, A: Accel>(
     let scene = lanes.scene;
     let background: V3<f32> = scene.settings.background.into();
     let mut u = [[0.0f32; LANES]; DIMS_PER_VERTEX];
+    #[cfg(target_arch = "x86_64")]
+    if lanes.avx512 {
+        // SAFETY: `avx512` is set only where the CPU has AVX-512 F and DQ.
+        u = unsafe { avx512::vertex_numbers(ctx, bounce) };
+    }
     for i in 0..LANES {
         if !paths.alive[i] {
             continue;
@@ -376,9 +392,11 @@ fn vertex<S: Stats, A: Accel>(
             let c = get(&paths.beta, i) * get(&paths.albedo, i) * light;
             add(&mut paths.walk, i, c);
         }
-        let numbers = vertex_numbers(&ctx[i], bounce);
-        for (d, x) in numbers.into_iter().enumerate() {
-            u[d][i] = x;
+        if !lanes.avx512 {
+            let numbers = vertex_numbers(&ctx[i], bounce);
+            for (d, x) in numbers.into_iter().enumerate() {
+                u[d][i] = x;
+            }
         }
     }
     let g = Geometry::of(&paths.hit);
@@ -552,5 +570,126 @@ fn light_sample<S: Stats, A: Accel>(
         }
         let c = get(&paths.beta, i) * get(&paths.albedo, i) * get(&value, i);
         add(&mut paths.walk, i, c);
+    }
+}
+
+/// The vertices' random numbers for all [`LANES`] lanes at once, in
+/// AVX-512 registers of 8 64-bit words: [`vertex_numbers`] lane by lane,
+/// through the same generic formulas ([`SplitMix64::keyed`],
+/// [`SplitMix64::output_words`]), so the same numbers bit for bit (the
+/// 24-bit integers convert exactly, and 2⁻²⁴ scales exactly). AVX2 has no
+/// 64-bit multiply, which is why this path wants AVX-512 DQ; elsewhere the
+/// lanes call [`vertex_numbers`] one at a time.
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use super::{vertex_key, SampleContext, F, LANES};
+    use crate::integrator::path::DIMS_PER_VERTEX;
+    use crate::math::{SplitMix64, Words};
+    use std::arch::x86_64::*;
+
+    /// Whether this CPU has what [`vertex_numbers`] uses.
+    pub(super) fn available() -> bool {
+        is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512dq")
+    }
+
+    /// 8 words, one per lane. Made only inside [`vertex_numbers`], which
+    /// runs only where [`available`] said yes: that is what makes its
+    /// operations' `unsafe` blocks sound.
+    #[derive(Clone, Copy)]
+    struct X8(__m512i);
+
+    impl Words for X8 {
+        #[inline(always)]
+        fn splat(x: u64) -> Self {
+            // SAFETY: see the type.
+            X8(unsafe { _mm512_set1_epi64(x as i64) })
+        }
+        #[inline(always)]
+        fn wrapping_add(self, o: Self) -> Self {
+            // SAFETY: see the type.
+            X8(unsafe { _mm512_add_epi64(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn wrapping_mul(self, o: Self) -> Self {
+            // SAFETY: see the type (AVX-512 DQ).
+            X8(unsafe { _mm512_mullo_epi64(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn xor(self, o: Self) -> Self {
+            // SAFETY: see the type.
+            X8(unsafe { _mm512_xor_si512(self.0, o.0) })
+        }
+        #[inline(always)]
+        fn shr<const N: u32>(self) -> Self {
+            // SAFETY: see the type.
+            X8(unsafe { _mm512_srl_epi64(self.0, _mm_cvtsi32_si128(N as i32)) })
+        }
+    }
+
+    /// [`super::vertex_numbers`] of every lane of `ctx`, by dimension.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512 F and DQ ([`available`]).
+    #[target_feature(enable = "avx512f,avx512dq")]
+    pub(super) unsafe fn vertex_numbers(
+        ctx: &[SampleContext; LANES],
+        bounce: u32,
+    ) -> [F; DIMS_PER_VERTEX] {
+        let mut out = [[0.0f32; LANES]; DIMS_PER_VERTEX];
+        for half in 0..LANES / 8 {
+            let mut words = [[0u64; 8]; 3];
+            for i in 0..8 {
+                let (seed, pixel, key) = vertex_key(&ctx[half * 8 + i], bounce);
+                (words[0][i], words[1][i], words[2][i]) = (seed, pixel, key);
+            }
+            let load = |w: &[u64; 8]| X8(unsafe { _mm512_loadu_si512(w.as_ptr().cast()) });
+            let state = SplitMix64::keyed(load(&words[0]), load(&words[1]), load(&words[2]));
+            for (d, row) in out.iter_mut().enumerate() {
+                let bits =
+                    SplitMix64::output_words(state, d as u64).shr::<{ SplitMix64::UNIT_SHIFT }>();
+                let unit = _mm256_mul_ps(
+                    _mm512_cvtepu64_ps(bits.0),
+                    _mm256_set1_ps(SplitMix64::UNIT_SCALE),
+                );
+                _mm256_storeu_ps(row[half * 8..].as_mut_ptr(), unit);
+            }
+        }
+        out
+    }
+
+    #[cfg(test)]
+    mod tests {
+        use super::*;
+
+        /// The lanes' numbers are [`super::super::vertex_numbers`]' bit for
+        /// bit, on contexts of every field's extremes and at random.
+        #[test]
+        fn lanes_draw_the_one_sample_numbers() {
+            if !available() {
+                return;
+            }
+            let mut rng = SplitMix64(3);
+            for round in 0..200u64 {
+                let ctx: [SampleContext; LANES] = std::array::from_fn(|i| {
+                    let r = rng.next_u64();
+                    let edge = round % 2 == 0 && i % 3 == 0;
+                    SampleContext {
+                        px: if edge { u32::MAX } else { r as u32 % 4096 },
+                        py: (r >> 32) as u32 % 4096,
+                        index: if edge { u32::MAX } else { (r >> 16) as u32 },
+                        seed: if edge { u64::MAX } else { rng.next_u64() },
+                    }
+                });
+                let bounce = (round % 9) as u32;
+                // SAFETY: `available` said yes.
+                let lanes = unsafe { vertex_numbers(&ctx, bounce) };
+                for (i, c) in ctx.iter().enumerate() {
+                    let one = super::super::vertex_numbers(c, bounce);
+                    for d in 0..DIMS_PER_VERTEX {
+                        assert_eq!(lanes[d][i].to_bits(), one[d].to_bits(), "lane {i} dim {d}");
+                    }
+                }
+            }
+        }
     }
 }

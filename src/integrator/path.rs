@@ -110,17 +110,26 @@ impl PathTracer {
 /// Numbers drawn per vertex (see the module docs).
 pub(crate) const DIMS_PER_VERTEX: usize = 6;
 
-/// The random numbers of vertex `bounce` of the sample `ctx`.
+/// The random numbers of vertex `bounce` of the sample `ctx`: the first
+/// [`DIMS_PER_VERTEX`] of the stream [`vertex_key`] keys.
 #[inline]
 pub(crate) fn vertex_numbers(ctx: &SampleContext, bounce: u32) -> [f32; DIMS_PER_VERTEX] {
+    let (seed, pixel, key) = vertex_key(ctx, bounce);
+    let mut rng = SplitMix64(SplitMix64::keyed(seed, pixel, key));
+    std::array::from_fn(|_| rng.next_f32())
+}
+
+/// The key of vertex `bounce`'s stream of the sample `ctx`, as
+/// [`SplitMix64::keyed`]'s (seed, pixel, key): the pixel sampler's keying
+/// with the sample index and the bounce for its key, salted.
+#[inline(always)]
+pub(crate) fn vertex_key(ctx: &SampleContext, bounce: u32) -> (u64, u64, u64) {
     // A salt keeps these streams apart from the pixel sampler's, which are
     // keyed by (seed, pixel, sample index) through the same hash.
     const PATH_SALT: u64 = 0x7061_7468_7472_6163; // "pathtrac"
     let pixel = (u64::from(ctx.py) << 32) | u64::from(ctx.px);
     let sample = (u64::from(ctx.index) << 32) | u64::from(bounce);
-    let key = ctx.seed ^ SplitMix64::mix(pixel ^ SplitMix64::mix(sample ^ PATH_SALT));
-    let mut rng = SplitMix64(SplitMix64::mix(key));
-    std::array::from_fn(|_| rng.next_f32())
+    (ctx.seed, pixel, sample ^ PATH_SALT)
 }
 
 impl Integrator for PathTracer {

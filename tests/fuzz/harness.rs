@@ -199,7 +199,7 @@ pub fn run(config: &Config) -> Vec<Summary> {
             config
                 .only
                 .as_ref()
-                .map_or(true, |only| only.iter().any(|o| o == t.name))
+                .is_none_or(|only| only.iter().any(|o| o == t.name))
         })
         .map(|t| {
             // Print as each reader finishes, so that a campaign cut short

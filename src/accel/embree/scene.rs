@@ -50,7 +50,7 @@ impl GeometryHandle {
         data: &[T],
     ) -> Result<(), EmbreeError> {
         let bytes = std::mem::size_of_val(data);
-        if stride == 0 || bytes % stride != 0 {
+        if stride == 0 || !bytes.is_multiple_of(stride) {
             return Err(EmbreeError::new(format!(
                 "{bytes} bytes of buffer data are not whole items of {stride} bytes"
             )));

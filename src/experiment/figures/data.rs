@@ -43,7 +43,7 @@ impl<'a> Data<'a> {
         let rows: Vec<&Vec<String>> = table
             .rows
             .iter()
-            .filter(|r| spec.sweep.as_ref().map_or(true, |s| &r[sweep] == s))
+            .filter(|r| spec.sweep.as_ref().is_none_or(|s| &r[sweep] == s))
             .filter(|r| only.iter().all(|(c, values)| values.contains(&r[*c])))
             .collect();
         if rows.is_empty() {

@@ -138,7 +138,7 @@ pub fn check_ratio_values(
     };
     let values: Vec<String> = runs
         .iter()
-        .filter(|r| f.sweep.as_ref().map_or(true, |s| &r.sweep == s))
+        .filter(|r| f.sweep.as_ref().is_none_or(|s| &r.sweep == s))
         .filter_map(|r| r.get(series).map(Value::to_string))
         .collect();
     if values.is_empty() {

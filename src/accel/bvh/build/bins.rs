@@ -281,7 +281,7 @@ impl Bins {
             acc_box = acc_box.union(boxes[i]);
             acc_n += count[i] as usize;
             let c = cost(side_cost::<V>(acc_box, counted(acc_n)), right_cost[j]);
-            if best.map_or(true, |(b, _)| c < b) {
+            if best.is_none_or(|(b, _)| c < b) {
                 best = Some((c, i + 1));
             }
         }

@@ -280,7 +280,7 @@ impl<'a, V: BoundingVolume> TreeBuilder<'a, V> {
                     self.bins
                         .best_split::<V>(axis, |n| self.options.counted(n), cost)
                 {
-                    if best.map_or(true, |(b, _, _)| c < b) {
+                    if best.is_none_or(|(b, _, _)| c < b) {
                         best = Some((c, axis, split));
                     }
                 }

@@ -270,7 +270,7 @@ pub(super) fn traced(scene: &Scene, (x, y): (f32, f32), chain: &Chain) -> Result
             reached = i;
             let hit = scene.intersect(&ray.value(), max, &mut NoStats)?;
             let (prim, face) = expected[i];
-            let ok = hit.prim == prim && face.map_or(true, |f| hit.front_face == f);
+            let ok = hit.prim == prim && face.is_none_or(|f| hit.front_face == f);
             found.hits[i] = ok.then_some(hit);
             found.hits[i]
         },

@@ -149,9 +149,9 @@ pub(super) struct Header {
 pub(super) fn parse_header(bytes: &[u8], path: &Path) -> Result<Header, InputError> {
     let at = |line: usize, message: String| InputError::line(path, line, message);
     let mut lines = Lines::new(bytes);
-    if !lines
+    if lines
         .next()
-        .is_some_and(|first| first.bytes.trim_ascii() == b"ply")
+        .is_none_or(|first| first.bytes.trim_ascii() != b"ply")
     {
         return Err(at(1, "not a PLY file: the first line must be `ply`".into()));
     }
