@@ -8,14 +8,16 @@
 
 pub mod build;
 mod collapse;
+mod inline;
 pub mod packet;
 pub mod traverse;
 pub mod volume;
 pub mod wide;
 
 pub use crate::math::Aabb;
+pub use inline::InlineAvx2;
 pub use volume::{BoundingEllipsoid, BoundingSphere, BoundingVolume};
-pub use wide::{has_avx2, Bvh4, Bvh8, InlineAvx2, WideBvh};
+pub use wide::{has_avx2, Bvh4, Bvh8, WideBvh};
 
 use super::Accel;
 use crate::shape::{PreparedRay, PrimArrays, PrimHit, Primitive};

@@ -128,7 +128,7 @@ pub struct WideBvh<const W: usize> {
     /// triangle (empty otherwise: leaves are then slot runs).
     packets: Vec<TriPacket<W>>,
     /// Whether the node test may use AVX2 (detected at build time).
-    avx2: bool,
+    pub(super) avx2: bool,
     /// The options the binary tree was built with (their SAH constants
     /// weigh [`WideBvh::stats`]' cost).
     options: BuildOptions,
@@ -318,7 +318,7 @@ where
     /// tree's [`Bvh::traverse`] for the contract. `AVX2` picks the node
     /// test; the caller vouches for the CPU.
     #[inline(always)]
-    fn traverse<S: Stats, const ANY_HIT: bool, const AVX2: bool>(
+    pub(super) fn traverse<S: Stats, const ANY_HIT: bool, const AVX2: bool>(
         &self,
         ray: &PreparedRay,
         mut t_max: f32,
@@ -465,62 +465,6 @@ where
     }
 }
 
-/// A wide tree whose AVX2 node test the CPU has, with a traversal that
-/// inlines into its caller ([`WideBvh::inline_avx2`]). Inlined into code
-/// compiled with AVX2 (the path tracer's groups, `integrator::lanes`), the
-/// query loses the call, the dispatch on the accelerator kind and the CPU
-/// check, and the compiler keeps the tree's pointers and the ray's set-up
-/// in registers across the caller's loop: 11 % off the Cornell box's
-/// path-traced render (`make bench-peers`' command at 64 spp and 1
-/// thread, best of 5 against the build without it, 2-core AMD EPYC,
-/// 2026-11-28). Called from code without AVX2 the intrinsics stay calls:
-/// slower, still right.
-#[derive(Clone, Copy, Debug)]
-pub struct InlineAvx2<'a, const W: usize>(&'a WideBvh<W>);
-
-impl<const W: usize> WideBvh<W>
-where
-    WideNode<W>: ChildTest<W>,
-{
-    /// The tree as an [`InlineAvx2`] accelerator, where the CPU has AVX2
-    /// (and the tree uses it: 8-wide).
-    pub fn inline_avx2(&self) -> Option<InlineAvx2<'_, W>> {
-        self.avx2.then_some(InlineAvx2(self))
-    }
-}
-
-impl<const W: usize> Accel for InlineAvx2<'_, W>
-where
-    WideNode<W>: ChildTest<W>,
-{
-    #[inline(always)]
-    fn intersect<S: Stats>(
-        &self,
-        _prims: &[Primitive],
-        ray: &PreparedRay,
-        t_max: f32,
-        stats: &mut S,
-    ) -> Option<(u32, PrimHit)> {
-        let mut best = None;
-        // `AVX2`: the value exists only where the CPU has it.
-        self.0
-            .traverse::<S, false, true>(ray, t_max, &mut best, stats);
-        best
-    }
-
-    #[inline(always)]
-    fn occluded<S: Stats>(
-        &self,
-        _prims: &[Primitive],
-        ray: &PreparedRay,
-        t_max: f32,
-        stats: &mut S,
-    ) -> bool {
-        self.0
-            .traverse::<S, true, true>(ray, t_max, &mut None, stats)
-    }
-}
-
 /// The traversal compiled for AVX2, so that the 8-wide node test inlines.
 ///
 /// # Safety
@@ -570,13 +514,13 @@ where
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::math::Vec3;
     use crate::shape::{Shape, Triangle};
 
     /// A strip of `n` small triangles along x.
-    fn strip(n: usize) -> Vec<Primitive> {
+    pub(in crate::accel::bvh) fn strip(n: usize) -> Vec<Primitive> {
         (0..n)
             .map(|i| {
                 let x = i as f32;
@@ -590,45 +534,6 @@ mod tests {
                 }
             })
             .collect()
-    }
-
-    /// The inlinable view ([`InlineAvx2`]) is the same traversal: the same
-    /// hits, bit for bit, and the same counts, on rays from a box around a
-    /// strip of triangles towards and past it. Where the CPU lacks AVX2 the
-    /// view must not exist.
-    #[test]
-    fn inline_view_answers_as_the_tree() {
-        use crate::math::{Ray, SplitMix64};
-        use crate::stats::Counters;
-        let prims = strip(300);
-        let ids: Vec<u32> = (0..prims.len() as u32).collect();
-        let t = Bvh8::build(&prims, ids, BuildOptions::wide());
-        let Some(view) = t.inline_avx2() else {
-            assert!(!has_avx2());
-            return;
-        };
-        let mut rng = SplitMix64(7);
-        let area = Aabb {
-            min: Vec3::new(-5.0, -2.0, -2.0),
-            max: Vec3::new(305.0, 3.0, 2.0),
-        };
-        let (mut hits, mut blocked) = (0, 0);
-        for _ in 0..20_000 {
-            let from = rng.in_box(&area);
-            let to = rng.in_box(&area);
-            let ray = PreparedRay::new(Ray::new(from, to - from));
-            let t_max = rng.range(0.2, 2.0);
-            let (mut a, mut b) = (Counters::default(), Counters::default());
-            let hit = t.intersect(&prims, &ray, t_max, &mut a);
-            assert_eq!(view.intersect(&prims, &ray, t_max, &mut b), hit);
-            let occluded = t.occluded(&prims, &ray, t_max, &mut a);
-            assert_eq!(view.occluded(&prims, &ray, t_max, &mut b), occluded);
-            assert_eq!(a, b);
-            hits += usize::from(hit.is_some());
-            blocked += usize::from(occluded);
-        }
-        assert_eq!(hits, blocked);
-        assert!(hits > 300, "{hits} hits of 20000");
     }
 
     /// Walk the wide trees: every child box contains its subtree's
