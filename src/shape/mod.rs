@@ -40,23 +40,26 @@ impl PreparedRay {
     pub fn new(ray: Ray) -> Self {
         let d = ray.dir;
         let a = d.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
+        // The axes are chosen by selects, not branches: over a path's
+        // bounce rays the dominant axis and its sign are random, and the
+        // branches would be mispredicted about half the time.
+        let x_dominant = (a.x >= a.y) & (a.x >= a.z);
+        let kz = if x_dominant {
             0
-        } else if a.y >= a.z {
-            1
         } else {
-            2
+            2 - usize::from(a.y >= a.z)
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        // Swap to keep the winding (and so the sign of the edge functions)
-        // independent of the direction's sign along kz.
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let c = d.to_array();
+        // (kz + 1) % 3 and (kz + 2) % 3; swapped to keep the winding (and
+        // so the sign of the edge functions) independent of the
+        // direction's sign along kz.
+        let (next, after) = ([1, 2, 0][kz], [2, 0, 1][kz]);
+        let negative = c[kz] < 0.0;
+        let kx = if negative { after } else { next };
+        let ky = if negative { next } else { after };
         // Two 4-lane divisions in place of six scalar ones: each lane is
         // the same correctly rounded quotient, so the bits do not change.
-        let shear = (glam::Vec4::new(d[kx], d[ky], 1.0, 1.0) / d[kz]).truncate();
+        let shear = (glam::Vec4::new(c[kx], c[ky], 1.0, 1.0) / c[kz]).truncate();
         let inv_dir = glam::Vec4::new(d.x, d.y, d.z, 1.0).recip().truncate();
         Self {
             ray,
