@@ -6,13 +6,13 @@
 //! in lockstep, one vertex at a time, and each step's arithmetic runs over
 //! arrays with one entry per path, which the compiler turns into SIMD
 //! instructions over the lanes (compiled a second time with AVX2 where the
-//! CPU has it): the light sample's geometry and weights, the shading frame
-//! and BRDF direction, the rays' offset origins, the throughput and the
+//! CPU has it): the light sample's geometry and weights, the cosine warp
+//! (whose sine and cosine are polynomials, not library calls), the shading
+//! frame and BRDF direction, the rays' offset origins, the throughput and the
 //! sums, and on a CPU with AVX-512 DQ the vertices' random numbers
 //! (SplitMix64's 64-bit multiplies, which AVX2 lacks). Traversal, the
 //! pixel sampler and camera, the random numbers elsewhere, the emitter
-//! choice, the albedo and the cosine warp (it has a `sin` and a `cos`)
-//! stay one call per lane, to the one-sample loop's own functions.
+//! choice and the albedo stay one call per lane, to the one-sample loop's own functions.
 //! The groups' code is generic over the accelerator: with `bvh8` on a CPU
 //! with AVX2 it takes the tree's
 //! [`InlineAvx2`](crate::accel::bvh::InlineAvx2) view, whose traversal
@@ -403,17 +403,17 @@ fn vertex<S: Stats, A: Accel>(
     if tracer.strategy != LightStrategy::BsdfOnly {
         light_sample(lanes, tracer, &g, &u, paths, stats);
     }
-    // The cosine-weighted BRDF direction: the warp per lane (it has a
-    // sin and a cos), the frame and the direction over the lanes.
+    // The cosine-weighted BRDF direction, the frame and the direction over
+    // the lanes (the ended paths' lanes too, whose numbers are defined and
+    // whose results are not used: the loop has no branch to stop it
+    // becoming SIMD instructions).
     let mut local: V = [[0.0; LANES]; 3];
     for i in 0..LANES {
-        if paths.alive[i] {
-            set(
-                &mut local,
-                i,
-                cosine_hemisphere(Vec2::new(u[3][i], u[4][i])).into(),
-            );
-        }
+        set(
+            &mut local,
+            i,
+            cosine_hemisphere(Vec2::new(u[3][i], u[4][i])).into(),
+        );
     }
     let mut wi: V = [[0.0; LANES]; 3];
     let mut origin: V = [[0.0; LANES]; 3];
