@@ -69,6 +69,10 @@ pub struct Emitter {
     pub shape: EmitterShape,
     /// Emitted radiance L_e (the same in every direction, on both sides).
     pub emission: Color,
+    /// The area density of a point sampled on it, lum(L_e)/W
+    /// ([`AreaLights::pdf_area`] of its emission), stored once rather than
+    /// divided at every sample.
+    pub pdf_area: f32,
 }
 
 /// The geometry of an emitter.
@@ -189,6 +193,14 @@ impl From<AreaSample> for AreaSampleR<f32> {
     }
 }
 
+/// lum(L_e)/W: the area density of a point sampled on an emitter of
+/// radiance `emission` among emitters of total weight W = `total` (the
+/// choice by weight lum(L_e)·A, then uniform on its area A).
+#[inline]
+fn density(emission: Color, total: f64) -> f32 {
+    (f64::from(luminance(emission)) / total) as f32
+}
+
 impl AreaLights {
     /// Collect the emitters among `prims`; `emission(object)` is the emitted
     /// radiance of an object's material.
@@ -210,7 +222,11 @@ impl AreaLights {
                 prim: i as u32,
                 shape,
                 emission: le,
+                pdf_area: 0.0,
             });
+        }
+        for e in &mut lights.emitters {
+            e.pdf_area = density(e.emission, total);
         }
         lights
     }
@@ -246,7 +262,7 @@ impl AreaLights {
             point,
             normal,
             emission: e.emission,
-            pdf_area: (f64::from(luminance(e.emission)) / total) as f32,
+            pdf_area: e.pdf_area,
         })
     }
 
@@ -257,10 +273,71 @@ impl AreaLights {
     pub fn pdf_area(&self, prim: &Primitive, emission: Color) -> f32 {
         let total = self.total_weight();
         match prim.shape {
-            Shape::Triangle(_) | Shape::Sphere(_) if total > 0.0 => {
-                (f64::from(luminance(emission)) / total) as f32
-            }
+            Shape::Triangle(_) | Shape::Sphere(_) if total > 0.0 => density(emission, total),
             _ => 0.0,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::SplitMix64;
+    use crate::shape::Sphere;
+
+    /// A sampled point's area density is the one [`AreaLights::pdf_area`]
+    /// gives its primitive's emission (MIS weighs both), bit for bit, and
+    /// the densities integrate to one: Σ pdf·A over the emitters.
+    #[test]
+    fn sampled_density_is_the_queried_one() {
+        let tri = |x: f32| {
+            Shape::Triangle(Triangle::new(
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x + 1.0, 0.0, 0.0),
+                Vec3::new(x, 2.0, 0.5),
+            ))
+        };
+        let prims: Vec<Primitive> = [
+            tri(0.0),
+            Shape::Sphere(Sphere::new(Vec3::new(0.0, 5.0, 0.0), 0.7)),
+            tri(3.0),
+            tri(6.0),
+        ]
+        .into_iter()
+        .enumerate()
+        .map(|(i, shape)| Primitive {
+            shape,
+            object: i as u32,
+        })
+        .collect();
+        // Object 3 emits nothing: not an emitter.
+        let emission = |o: u32| {
+            [
+                Color::new(3.0, 2.0, 1.0),
+                Color::splat(0.5),
+                Color::new(0.1, 7.0, 0.2),
+                Color::ZERO,
+            ][o as usize]
+        };
+        let lights = AreaLights::build(&prims, emission);
+        assert_eq!(lights.emitters.len(), 3);
+        let mut rng = SplitMix64(11);
+        let mut seen = [false; 3];
+        for _ in 0..2000 {
+            let u = Vec2::new(rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+            let s = lights.sample(rng.range(0.0, 1.0), u).unwrap();
+            let prim = &prims[s.prim as usize];
+            assert_eq!(s.emission, emission(prim.object));
+            let queried = lights.pdf_area(prim, s.emission);
+            assert_eq!(s.pdf_area.to_bits(), queried.to_bits());
+            seen[s.prim.min(2) as usize] = true;
+        }
+        assert_eq!(seen, [true; 3]);
+        let total: f64 = lights
+            .emitters
+            .iter()
+            .map(|e| f64::from(e.pdf_area) * f64::from(e.shape.area()))
+            .sum();
+        assert!((total - 1.0).abs() < 1e-6, "{total}");
     }
 }

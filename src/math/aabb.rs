@@ -6,7 +6,7 @@
 //! All do the same operations in the same order, so they give
 //! bit-identical distances (tested below).
 
-use glam::{BVec4A, Vec3, Vec4};
+use glam::{BVec4A, Vec3, Vec3A, Vec4};
 
 /// An axis-aligned box [min, max]. Empty when some min exceeds its max
 /// ([`Aabb::EMPTY`] is the identity of [`Aabb::union`]).
@@ -95,16 +95,19 @@ impl Aabb {
     /// conservative.
     #[inline]
     pub fn slab(&self, origin: Vec3, inv_dir: Vec3, t_max: f32) -> Option<f32> {
-        let t0 = (self.min - origin) * inv_dir;
-        let t1 = (self.max - origin) * inv_dir;
+        // The three axes side by side in one SIMD register (`Vec3A`): each
+        // step below is one instruction for all three.
+        let (o, inv) = (Vec3A::from(origin), Vec3A::from(inv_dir));
+        let t0 = (Vec3A::from(self.min) - o) * inv;
+        let t1 = (Vec3A::from(self.max) - o) * inv;
         // 0·∞ = NaN arises only when the ray is parallel to an axis (1/d =
         // ±∞) and starts exactly on one of that slab's planes: it then stays
         // in the closed slab for every t, so that axis must not constrain
         // the interval. Replace its bounds by (−∞, +∞) explicitly rather
         // than relying on how min/max treat NaN.
         let free = t0.is_nan_mask() | t1.is_nan_mask();
-        let near = Vec3::select(free, Vec3::NEG_INFINITY, t0.min(t1));
-        let far = Vec3::select(free, Vec3::INFINITY, t0.max(t1));
+        let near = Vec3A::select(free, Vec3A::NEG_INFINITY, t0.min(t1));
+        let far = Vec3A::select(free, Vec3A::INFINITY, t0.max(t1));
         let t_enter = near.max_element();
         let t_exit = far.min_element() * SLAB_EXIT_SCALE;
         (t_enter <= t_exit && t_exit >= 0.0 && t_enter <= t_max).then_some(t_enter.max(0.0))
