@@ -304,11 +304,8 @@ mod tests {
             tri(6.0),
         ]
         .into_iter()
-        .enumerate()
-        .map(|(i, shape)| Primitive {
-            shape,
-            object: i as u32,
-        })
+        .zip(0..)
+        .map(|(shape, object)| Primitive { shape, object })
         .collect();
         // Object 3 emits nothing: not an emitter.
         let emission = |o: u32| {
