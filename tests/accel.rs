@@ -17,14 +17,17 @@
 //! meshes.
 
 use raylab::accel::bvh::{
-    BoundingVolume, Builder, BvhConfig, Fit, Node, VolumeKind, DEFAULT_LEAF_SIZE, MAX_DEPTH,
+    BoundingVolume, BuildOptions, Builder, BvhConfig, Fit, Node, VolumeKind, DEFAULT_LEAF_SIZE,
+    MAX_DEPTH,
 };
 use raylab::accel::{Accel, AccelKind, Accelerator, Bvh, Bvh4, Bvh8};
+use raylab::io::scene_file::{load_scene, Overrides};
 use raylab::math::Aabb;
 use raylab::math::{Ray, Vec3};
 use raylab::shape::{PreparedRay, Primitive};
 use raylab::stats::{Counters, NoStats};
 use rayon::prelude::*;
+use std::path::Path;
 use std::time::Instant;
 
 mod common;
@@ -486,4 +489,102 @@ fn names_parse_and_print() {
         assert!(err.contains("bvh:<volume>"), "{bad}: {err}");
     }
     assert_eq!(parse("brute"), Ok(AccelKind::Brute));
+}
+
+/// The 8-wide tree of a room: each wall of the Cornell box gets a leaf of
+/// its own, so a ray leaving a wall does not start inside a room-sized
+/// leaf of several walls and test its packet. Without the collapse's term
+/// for rays born on the surfaces (`surface_origins` 0) one leaf holds
+/// several walls, and rays leaving the walls test more triangles: this is
+/// what the term is for (module `collapse`).
+#[test]
+fn a_rooms_walls_get_leaves_of_their_own() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/cornell-box.toml");
+    let scene = load_scene(&path, &Overrides::default()).unwrap();
+    let prims = &scene.prims;
+    // The file's first ten triangles are the floor, ceiling, back, left
+    // and right walls, two each: each pair spans one face of the room.
+    let room = Aabb {
+        min: Vec3::new(-1.0, 0.0, -1.0),
+        max: Vec3::new(1.0, 2.0, 1.0),
+    };
+    // Per wall: its axis and its inward normal; the room's face it lies in.
+    let walls = [
+        (1, Vec3::Y),
+        (1, -Vec3::Y),
+        (2, Vec3::Z),
+        (0, Vec3::X),
+        (0, -Vec3::X),
+    ];
+    let face = |a: usize, n: Vec3| if n[a] > 0.0 { room.min } else { room.max };
+    for (w, &(a, n)) in walls.iter().enumerate() {
+        let b = prims[2 * w]
+            .bounds()
+            .unwrap()
+            .union(prims[2 * w + 1].bounds().unwrap());
+        let face = face(a, n);
+        assert!(b.min[a] == face[a] && b.max[a] == face[a], "wall {w}");
+        let other = |k: usize| b.min[k] == room.min[k] && b.max[k] == room.max[k];
+        assert!((0..3).filter(|&k| k != a).all(other), "wall {w}");
+    }
+    // The most walls any leaf holds.
+    let walls_in_a_leaf = |t: &Bvh8| {
+        let mut stack = vec![t.root()];
+        let mut most = 0;
+        while let Some((first, count)) = stack.pop() {
+            if count > 0 {
+                let mut walls: Vec<u32> = t
+                    .leaf_slots(first, count)
+                    .map(|j| t.indices()[j as usize])
+                    .filter(|&id| id < 10)
+                    .map(|id| id / 2)
+                    .collect();
+                walls.sort_unstable();
+                walls.dedup();
+                most = most.max(walls.len());
+                continue;
+            }
+            let n = &t.nodes()[first as usize];
+            for i in (0..8).filter(|&i| n.count[i] != u32::MAX) {
+                stack.push((n.first[i], n.count[i]));
+            }
+        }
+        most
+    };
+    // Triangle tests of rays leaving the walls into the room, from just
+    // off their surface.
+    let tests = |t: &Bvh8| {
+        let mut rng = raylab::math::SplitMix64(7);
+        let mut c = Counters::default();
+        for k in 0..5000 {
+            let (a, n) = walls[k % 5];
+            let face = face(a, n);
+            let mut o = room.min
+                + (room.max - room.min) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            o[a] = face[a];
+            let d = Vec3::new(
+                rng.next_f32() - 0.5,
+                rng.next_f32() - 0.5,
+                rng.next_f32() - 0.5,
+            );
+            let d = if d.dot(n) < 0.0 { -d } else { d };
+            let ray = PreparedRay::new(Ray::new(o + 1e-4 * n, d.normalize()));
+            t.intersect(prims, &ray, f32::INFINITY, &mut c);
+        }
+        c.triangle_tests
+    };
+    let ids = all_ids(prims);
+    let wide = Bvh8::build(prims, ids.clone(), BuildOptions::wide());
+    let plain = BuildOptions {
+        surface_origins: 0.0,
+        ..BuildOptions::wide()
+    };
+    let plain = Bvh8::build(prims, ids, plain);
+    assert_eq!(walls_in_a_leaf(&wide), 1);
+    assert!(walls_in_a_leaf(&plain) > 1);
+    let (t_wide, t_plain) = (tests(&wide), tests(&plain));
+    assert!(
+        t_wide < t_plain,
+        "{t_wide} against {t_plain} triangle tests"
+    );
 }

@@ -144,6 +144,12 @@ pub struct BuildOptions {
     /// width): the SAH counts each side's primitives rounded up to whole
     /// blocks, since a packet with empty lanes costs a full one. Default 1.
     pub block: u32,
+    /// Weight w of rays that start on the scene's surfaces in the wide
+    /// trees' collapse: a box B under the root box R, over triangles of
+    /// total area S, is priced A(B) + w·A(R)·S(B)/S instead of its area A(B),
+    /// S(B) the area whose rays start inside B (module `collapse`). Default
+    /// 0, the plain SAH; the binary build does not use it.
+    pub surface_origins: f32,
 }
 
 impl Default for BuildOptions {
@@ -156,6 +162,7 @@ impl Default for BuildOptions {
             traversal_cost: 1.0,
             intersection_cost: 1.0,
             block: 1,
+            surface_origins: 0.0,
         }
     }
 }
@@ -184,11 +191,21 @@ impl BuildOptions {
     /// went into leaves of 8 with overlapping boxes (18 triangle tests per
     /// ray instead of 10.5, its path-traced render 5 % slower). Blocks of 4
     /// (half a packet) lost a few percent against counting single triangles.
+    ///
+    /// The collapse weighs rays born on the surfaces (`surface_origins` 1:
+    /// starting inside a box counts as much as the SAH's chance of hitting
+    /// it from outside), and small scenes get a second, finer candidate
+    /// tree ([`super::WideBvh::build`]). On the Cornell box's path-traced
+    /// render (64×64, 16 spp, 1 thread) the two cut the instructions by
+    /// 11 % (callgrind: 441.0 M to 392.9 M; 2026-11-28); on the five meshes
+    /// the surface term moved node visits per ray by −1 to 0 % and triangle
+    /// tests by 0 to +0.3 %.
     pub fn wide() -> Self {
         BuildOptions {
             leaf_size: 8,
             intersection_cost: 0.6,
             block: 8,
+            surface_origins: 1.0,
             ..BuildOptions::default()
         }
     }
