@@ -43,7 +43,7 @@
 //! right walls and two block faces into one room-sized leaf, which rays
 //! born on those walls and on the blocks start inside; priced this way,
 //! each wall gets a flat leaf of its own.
-
+//!
 //! O(nodes · W²) work. Every leaf holds one run of the leaf order (a
 //! binary leaf, or a binary subtree's leaves in order), so hits are those
 //! of the binary tree.
@@ -95,6 +95,7 @@ impl<'a, const W: usize> Collapse<'a, W> {
         let mut as_leaf = vec![false; bin.len()];
         let price = Price::new(bin.first().map(|r| r.volume), tris, o.surface_origins);
         let leaf_cost = |n: u32, p: f32| o.intersection_cost * o.counted(n as usize) as f32 * p;
+        // Set at every node; the root (b = 0) comes last.
         let mut root_cost = 0.0;
         // Children sit after their parent in the array: go backwards.
         for b in (0..bin.len()).rev() {

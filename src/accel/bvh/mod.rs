@@ -195,7 +195,7 @@ impl BuildOptions {
     /// The collapse weighs rays born on the surfaces (`surface_origins` 1:
     /// starting inside a box counts as much as the SAH's chance of hitting
     /// it from outside), and small scenes get a second, finer candidate
-    /// tree ([`super::WideBvh::build`]). On the Cornell box's path-traced
+    /// tree ([`WideBvh::build`]). On the Cornell box's path-traced
     /// render (64×64, 16 spp, 1 thread) the two cut the instructions by
     /// 11 % (callgrind: 441.0 M to 392.9 M; 2026-11-28); on the five meshes
     /// the surface term moved node visits per ray by −1 to 0 % and triangle

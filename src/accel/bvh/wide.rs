@@ -653,6 +653,9 @@ pub(super) mod tests {
         // children. The strip's tree is balanced, so the collapse should
         // fill nodes (the greedy rule left 8-wide nodes half empty here).
         let mean = (n + leaves - 1) as f64 / n as f64;
-        assert!(mean >= 0.9 * W as f64, "{mean} children a node, W = {W}, {} leaves", leaves);
+        assert!(
+            mean >= 0.9 * W as f64,
+            "{mean} children a node, W = {W}, {leaves} leaves"
+        );
     }
 }
