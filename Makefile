@@ -50,19 +50,16 @@ demo: build
 	@echo "  s1-ogss-cost (S1's tables, full), s3-bvh-ladder and bvh-volumes (S3, quick),"
 	@echo "  embree-oracle (full), embree-speed and aa-images (quick); full runs: see book/src/reproducing.md"
 
-## test: every test, including the real-mesh readers, the Embree
-## cross-checks and the CLI; the API docs with no broken links; the Slurm
-## and GNU-parallel scripts on a throwaway local cluster (scripts/test-slurm);
-## then the book is built with the release build (figures from the quick
-## experiments and the committed full runs, numbers substituted from their
-## data) and its pages checked.
-test: deps
-	$(CARGO) test --all-targets
-	$(CARGO) test --doc
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps
-	RAYLAB=target/debug/raylab scripts/test-slurm
-	$(CARGO) build --release
-	RAYLAB=$(RAYLAB) scripts/book
+## test: formatting and lints (cargo fmt, cargo clippy -D warnings); every
+## crate's tests, including the real-mesh readers, the Embree cross-checks and
+## the CLI; the API docs with no broken links; the Slurm and GNU-parallel
+## scripts on a throwaway local cluster (scripts/test-slurm); then the book is
+## built with the release build (figures from the quick experiments and the
+## committed full runs, numbers substituted from their data) and its pages
+## checked. scripts/test runs the steps (make deps first) and says how long
+## each took.
+test:
+	@scripts/test
 
 ## book: the book (book/book/index.html): the quick experiments make its
 ## figures, mdBook + mdbook-katex (installed into .deps/tools when missing)

@@ -175,7 +175,7 @@ def convert(scene_path: Path, args, workdir: Path) -> tuple[dict, list[str]]:
     if rfilter not in ("box", "tent", "mitchell"):
         raise ValueError(f"unknown filter {rfilter!r}")
 
-    # Materials. raylab's path tracer (src/integrator/path.rs) makes every
+    # Materials. raylab's path tracer (crates/core/src/integrator/path.rs) makes every
     # surface Lambertian with albedo ρ = clamp(k_d × color, 0, 1)
     # (`MaterialR::lambert_albedo`), two-sided (hits' normals are turned to
     # face the ray, `Scene::hit_details`); specular, mirror and glass terms
@@ -258,14 +258,14 @@ def convert(scene_path: Path, args, workdir: Path) -> tuple[dict, list[str]]:
     w, h = args.width, args.height
     if "aspect" in cam and abs(float(cam["aspect"]) - w / h) > 1e-6:
         raise ValueError("a camera aspect other than width/height is not converted")
-    # raylab's `fov` is the vertical view angle (src/camera.rs: H = N·tan(θ/2),
+    # raylab's `fov` is the vertical view angle (crates/core/src/camera.rs: H = N·tan(θ/2),
     # W = H·aspect), so fov_axis = "y". Its rays start at the eye (the near
     # plane only scales the image plane), hence a tiny near_clip.
     spec = {
         "eye": cam["eye"], "look_at": cam["look_at"], "up": cam.get("up", [0.0, 1.0, 0.0]),
         "fov": float(cam["fov"]), "width": w, "height": h, "filter": rfilter,
         # raylab's path:K: K bounces after the camera hit, the last vertex's
-        # BRDF ray still collecting emission (src/integrator/path.rs), so its
+        # BRDF ray still collecting emission (crates/core/src/integrator/path.rs), so its
         # longest path has K + 2 segments: camera → x1 → … → x_{K+1} →
         # emitter. Mitsuba's max_depth counts segments (1 = emitters seen
         # directly, 2 = direct light), so path:K = max_depth K + 2 (path:4 =

@@ -316,7 +316,7 @@ class Parser:
         }[agg](values)
 
     def slope(self):
-        """The log–log least-squares slope, as src/experiment/figures/mod.rs's
+        """The log–log least-squares slope, as crates/lab/src/experiment/figures/mod.rs's
         fitted_slope computes it for a figure's legend."""
         spec = self.raw_until("|)")
         if spec.count(",") != 1:

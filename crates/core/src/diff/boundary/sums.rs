@@ -1,0 +1,236 @@
+//! What one film sample of a curve measures, and the per-pixel sums of a
+//! curve's samples: shared by the curves placed by projection
+//! ([`super::sample_curve`]) and those found as level sets in curved
+//! mirrors ([`super::curved`]).
+
+use super::{BoundaryStats, OFFSET_PX};
+use crate::integrator::{IntegratorKind, SampleContext, Whitted};
+use crate::math::{Ray, RayR, Vec3, V3};
+use crate::scene::{Scene, View};
+use crate::shape::{Hit, ShapeR};
+use crate::stats::NoStats;
+use std::collections::HashMap;
+
+/// Per touched pixel, per parameter: the mean, the variance of the mean
+/// per channel, and that of the channel mean.
+pub(crate) type PixelResult<const K: usize> = Vec<(usize, [[f32; 3]; K], [[f32; 3]; K], [f32; K])>;
+
+/// Per-parameter planes: means and variances (per pixel and channel) and
+/// the grey variances (per pixel).
+pub(crate) type Planes<'a> = (&'a mut [Vec<f32>], &'a mut [Vec<f32>], &'a mut [Vec<f32>]);
+
+/// Add `pixels` (for the first `n` parameters) into `planes`.
+pub(crate) fn fold_into<const K: usize>(
+    pixels: PixelResult<K>,
+    n: usize,
+    (mean, variance, grey): Planes<'_>,
+) {
+    for (pixel, m, var, g) in pixels {
+        for k in 0..n {
+            for c in 0..3 {
+                mean[k][3 * pixel + c] += m[k][c];
+                variance[k][3 * pixel + c] += var[k][c];
+            }
+            grey[k][pixel] += g[k];
+        }
+    }
+}
+
+/// The jump f⁻ − f⁺ across a curve at film point `(x, y)`: the radiance
+/// of the integrator on the camera rays at (x, y) ∓ `offset` (the curve's
+/// film normal times [`OFFSET_PX`]), both with the sample's own random
+/// numbers `ctx`, so that what they have in common cancels; on the side
+/// `limit` names (+1 or −1) its value there instead ([`grazing`]).
+pub(super) fn jump(
+    scene: &Scene,
+    integrator: &IntegratorKind,
+    (x, y): (f32, f32),
+    (ox, oy): (f32, f32),
+    ctx: &SampleContext,
+    limit: Option<(f32, V3<f32>)>,
+) -> [f64; 3] {
+    let f = |sign: f32| match limit {
+        Some((side, value)) if side == sign => value,
+        _ => {
+            let ray = scene.camera_ray(x + sign * ox, y + sign * oy);
+            integrator.radiance_on(scene, &ray, ctx)
+        }
+    };
+    let (plus, minus) = (f(1.0), f(-1.0));
+    [minus.x - plus.x, minus.y - plus.y, minus.z - plus.z].map(f64::from)
+}
+
+/// The Whitted colour at the silhouette point `s` of the sphere or
+/// ellipsoid `prim` seen from the eye, in the limit from inside: the
+/// camera ray through `s` with its hit there, the normal made
+/// perpendicular to the ray (to within 10⁻⁶, on the eye's side), so that
+/// a reflected ray goes on along it from just outside and a refracted one
+/// enters at the critical angle. At a film distance δ
+/// inside, the colour differs from this by what the reflected ray sees
+/// turned by about 2√(2δ/r) (r the silhouette's radius on the film): two
+/// degrees at [`OFFSET_PX`] on a sphere 7 pixels across, enough to see
+/// the far side of a horizon. `None` where something else hides `s`.
+pub(super) fn grazing(scene: &Scene, prim: u32, s: Vec3) -> Option<V3<f32>> {
+    let eye = scene.camera.frame().eye.value();
+    let to = s - eye;
+    let dist = to.length();
+    let dir = to / dist;
+    let ray = Ray::new(eye, dir);
+    let before = scene.intersect(&ray, dist * (1.0 - 1e-3), &mut NoStats);
+    if before.is_some_and(|h| h.prim != prim) {
+        return None;
+    }
+    let shape = ShapeR::<f32>::of(&scene.prims[prim as usize]);
+    let n = shape.outward_normal(V3::from_vec3(s)).value();
+    let mut n = (n - dir * n.dot(dir)).try_normalize()?;
+    if n.dot(dir) > 0.0 {
+        // Just towards the eye, so that the reflected ray starts outside.
+        n = (n - dir * 1e-6).normalize();
+    }
+    let hit = Hit {
+        t: dist,
+        point: s,
+        geometric_normal: n,
+        shading_normal: n,
+        prim,
+        object: scene.prims[prim as usize].object,
+        front_face: true,
+    };
+    Some(Whitted.radiance_at_hit(scene, &RayR::from(ray), hit, &mut NoStats))
+}
+
+/// A sample that lands at film point `(x, y)` of a film `width` pixels
+/// wide and takes its two radiance evaluations: counted in `stats`, with
+/// the pixel it lands in and its random numbers' context.
+pub(super) fn landed(
+    stats: &mut BoundaryStats,
+    (x, y): (f32, f32),
+    width: u32,
+    index: u32,
+    seed: u64,
+) -> (usize, SampleContext) {
+    stats.landed += 1;
+    stats.evaluations += 2;
+    let (px, py) = (x as u32, y as u32);
+    let ctx = SampleContext {
+        px,
+        py,
+        index,
+        seed,
+    };
+    ((py * width + px) as usize, ctx)
+}
+
+/// The offset of [`jump`] for a film normal `(nx, ny)` of length `len`:
+/// [`OFFSET_PX`] along it.
+pub(super) fn offset(normal: (f32, f32), len: f32) -> (f32, f32) {
+    offset_by(normal, len, OFFSET_PX)
+}
+
+/// `eps` pixels along the film normal `(nx, ny)` of length `len`.
+pub(super) fn offset_by((nx, ny): (f32, f32), len: f32, eps: f32) -> (f32, f32) {
+    (eps * nx / len, eps * ny / len)
+}
+
+/// One pixel's running sums.
+struct Sums<const K: usize> {
+    s1: [[f64; 3]; K],
+    s2: [[f64; 3]; K],
+    g1: [f64; K],
+    g2: [f64; K],
+}
+
+/// The running sums of one curve's samples (or of one sphere's rim
+/// samples, [`crate::diff::rim`]), per touched pixel, for the first `n` of
+/// the K parameters.
+pub(crate) struct PixelSums<const K: usize> {
+    n: usize,
+    sums: HashMap<usize, Sums<K>>,
+}
+
+impl<const K: usize> PixelSums<K> {
+    pub fn new(n: usize) -> Self {
+        Self {
+            n,
+            sums: HashMap::new(),
+        }
+    }
+
+    /// The sums of `pixel`, zero when new.
+    fn at(&mut self, pixel: usize) -> &mut Sums<K> {
+        self.sums.entry(pixel).or_insert(Sums {
+            s1: [[0.0; 3]; K],
+            s2: [[0.0; 3]; K],
+            g1: [0.0; K],
+            g2: [0.0; K],
+        })
+    }
+
+    /// A sample in `pixel`: its jump times the curve's normal speed per
+    /// parameter (already over the sample's density).
+    pub fn add(&mut self, pixel: usize, jump: [f64; 3], speed: &[f32]) {
+        let mut values = [[0.0; 3]; K];
+        for (value, &v) in values.iter_mut().zip(speed) {
+            *value = jump.map(|j| j * f64::from(v));
+        }
+        self.add_values(pixel, &values[..speed.len()]);
+    }
+
+    /// A sample in `pixel` with value `values[k]` (per channel, already
+    /// over the sample's density) for parameter k.
+    pub fn add_values(&mut self, pixel: usize, values: &[[f64; 3]]) {
+        let e = self.at(pixel);
+        for (k, v) in values.iter().enumerate() {
+            for (c, &g) in v.iter().enumerate() {
+                e.s1[k][c] += g;
+                e.s2[k][c] += g * g;
+            }
+            let g = (v[0] + v[1] + v[2]) / 3.0;
+            e.g1[k] += g;
+            e.g2[k] += g * g;
+        }
+    }
+
+    /// The samples of `other` (the same curve's, drawn elsewhere) added in.
+    pub fn merge(&mut self, other: Self) {
+        for (pixel, o) in other.sums {
+            let e = self.at(pixel);
+            for k in 0..K {
+                for c in 0..3 {
+                    e.s1[k][c] += o.s1[k][c];
+                    e.s2[k][c] += o.s2[k][c];
+                }
+                e.g1[k] += o.g1[k];
+                e.g2[k] += o.g2[k];
+            }
+        }
+    }
+
+    /// Each pixel's estimate, the mean over all `samples` of the curve
+    /// (those that landed elsewhere count as 0), with the variance of a
+    /// mean; sorted by pixel.
+    pub fn finish(self, samples: u32) -> PixelResult<K> {
+        let m = f64::from(samples);
+        let var = |s1: f64, s2: f64| ((s2 - s1 * s1 / m) / (m * (m - 1.0))).max(0.0) as f32;
+        let n = self.n;
+        let mut pixels: Vec<_> = self
+            .sums
+            .into_iter()
+            .map(|(pixel, e)| {
+                let mut mean = [[0.0f32; 3]; K];
+                let mut variance = [[0.0f32; 3]; K];
+                let mut grey = [0.0f32; K];
+                for k in 0..n {
+                    for c in 0..3 {
+                        mean[k][c] = (e.s1[k][c] / m) as f32;
+                        variance[k][c] = var(e.s1[k][c], e.s2[k][c]);
+                    }
+                    grey[k] = var(e.g1[k], e.g2[k]);
+                }
+                (pixel, mean, variance, grey)
+            })
+            .collect();
+        pixels.sort_unstable_by_key(|p| p.0);
+        pixels
+    }
+}

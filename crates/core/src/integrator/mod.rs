@@ -1,0 +1,360 @@
+//! Integrators turn a camera ray into a colour, and [`render`] drives one
+//! over the image in parallel.
+//!
+//! The render loop is parallel over image rows (rayon). Each row is computed
+//! by one thread with its own statistics sink; sinks are summed after the
+//! loop, so there are no atomics or locks on the hot path, and because every
+//! sample is a pure function of (pixel, sample index, seed) the image is the
+//! same bit for bit on any number of threads.
+//!
+//! [`IntegratorKind`] names the integrators a user can pick (`whitted`,
+//! `direct`, `path:K`) and renders with the chosen one, dispatching once
+//! per render so every ray runs monomorphised code.
+
+pub mod adaptive;
+pub mod floodfill;
+pub mod lanes;
+pub mod path;
+pub mod progress;
+pub mod whitted;
+
+pub use floodfill::{FloodFillIntegrator, FloodFillSettings};
+pub use path::PathTracer;
+pub use whitted::Whitted;
+
+use crate::film::{Film, FilmSample, Filter, PixelStats};
+use crate::math::{Color, Ray, RayR, Real, V3};
+use crate::sampler::Sampler;
+use crate::scene::{Scene, View};
+use crate::stats::{Counters, RenderStats, Stats};
+use glam::Vec2;
+use rayon::prelude::*;
+
+/// Where a camera sample comes from: the integrators that use random
+/// numbers seed them from this, never from thread state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SampleContext {
+    pub px: u32,
+    pub py: u32,
+    pub index: u32,
+    pub seed: u64,
+}
+
+/// An integrator: the colour seen along a camera ray.
+pub trait Integrator: Sync {
+    fn radiance<S: Stats>(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        ctx: &SampleContext,
+        stats: &mut S,
+    ) -> Color;
+}
+
+/// The integrators a render can use, as named on the command line and in
+/// manifests: `whitted`, `direct` (path tracing with no bounce: emission
+/// seen plus light sampled at the first hit), `path:K` (up to K bounces
+/// after the camera hit; see [`path`] for what a bounce is) and
+/// `floodfill[:…]` (one bounce, then S4's voxel cache; see [`floodfill`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum IntegratorKind {
+    Whitted,
+    Direct,
+    Path(PathTracer),
+    FloodFill(FloodFillSettings),
+}
+
+/// An integrator ready to render frames of one scene: for flood fill, with
+/// its cache built and warmed up.
+pub enum Prepared {
+    Plain(IntegratorKind),
+    FloodFill(Box<FloodFillIntegrator>),
+}
+
+impl Prepared {
+    /// Render one frame (flood fill: its propagation steps, then the
+    /// render).
+    pub fn frame<S: RenderStats>(
+        &mut self,
+        scene: &Scene,
+        threads: Option<usize>,
+    ) -> Result<(Film, S), String> {
+        match self {
+            Prepared::Plain(kind) => kind.render(scene, threads),
+            Prepared::FloodFill(ff) => Ok(ff.frame(scene, threads)),
+        }
+    }
+}
+
+/// The most bounces `path:K` accepts (a typo guard; Russian roulette ends
+/// nearly every path long before).
+pub const MAX_BOUNCES: u32 = 1024;
+
+impl IntegratorKind {
+    /// Parse `whitted`, `direct` or `path:K` (K in 0..=[`MAX_BOUNCES`]).
+    pub fn parse(s: &str) -> Result<Self, String> {
+        if let Some(rest) = s.strip_prefix("floodfill") {
+            return FloodFillSettings::parse(rest).map(Self::FloodFill);
+        }
+        match s.split_once(':') {
+            None if s == "whitted" => Ok(Self::Whitted),
+            None if s == "direct" => Ok(Self::Direct),
+            Some(("path", k)) => match k.parse::<u32>() {
+                Ok(k) if k <= MAX_BOUNCES => Ok(Self::Path(PathTracer::new(k))),
+                _ => Err(format!(
+                    "path bounce count must be an integer in 0..={MAX_BOUNCES}, got `{k}`"
+                )),
+            },
+            _ => Err(format!(
+                "unknown integrator `{s}` (expected `whitted`, `direct`, `path:K`, \
+                 K = bounces after the camera hit, e.g. `path:4`, or `floodfill[:key=value,…]`)"
+            )),
+        }
+    }
+
+    /// The name it parses from (`whitted`, `direct`, `path:4`).
+    pub fn name(&self) -> String {
+        match self {
+            Self::Whitted => "whitted".into(),
+            Self::Direct => "direct".into(),
+            Self::Path(p) => format!("path:{}", p.max_bounces),
+            Self::FloodFill(f) => f.name(),
+        }
+    }
+
+    /// Get ready to render frames of `scene` (builds the flood-fill cache;
+    /// fails only when the scene cannot be voxelised).
+    pub fn prepare(&self, scene: &Scene) -> Result<Prepared, String> {
+        Ok(match self {
+            Self::FloodFill(f) => {
+                Prepared::FloodFill(Box::new(FloodFillIntegrator::build(scene, *f)?))
+            }
+            other => Prepared::Plain(*other),
+        })
+    }
+
+    /// The path tracer this kind runs, if it is one (`direct` is the path
+    /// tracer with no bounce).
+    pub fn path_tracer(&self) -> Option<PathTracer> {
+        match *self {
+            Self::Whitted | Self::FloodFill(_) => None,
+            Self::Direct => Some(PathTracer::new(0)),
+            Self::Path(p) => Some(p),
+        }
+    }
+
+    /// Set the bounce count after which Russian roulette starts (`None`:
+    /// never); no effect on `whitted` and `direct`.
+    pub fn with_rr_start(mut self, rr_start: Option<u32>) -> Self {
+        if let Self::Path(p) = &mut self {
+            p.rr_start = rr_start;
+        }
+        self
+    }
+
+    /// One sample's radiance along `ray` on `view` (the `f32` scene or the
+    /// derivative code's dual-number view), with this integrator and no
+    /// counting: what the gradient render and the boundary term evaluate
+    /// per sample. Flood fill, whose cache the derivative code does not
+    /// differentiate, has none: zero (callers refuse it before rendering).
+    pub fn radiance_on<V: View>(
+        &self,
+        view: &V,
+        ray: &RayR<V::R>,
+        ctx: &SampleContext,
+    ) -> V3<V::R> {
+        let mut stats = crate::stats::NoStats;
+        match self {
+            Self::Whitted => Whitted.radiance_of(view, ray, &mut stats),
+            Self::Direct | Self::Path(_) => {
+                let p = self
+                    .path_tracer()
+                    .expect("direct and path are path tracers");
+                p.trace(view, ray, ctx, &mut stats, None::<&path::NoEnd>)
+            }
+            Self::FloodFill(_) => V3::splat(V::R::zero()),
+        }
+    }
+
+    /// Render the scene with this integrator (see [`render`]).
+    /// Flood fill builds and warms its cache first (see [`Self::prepare`]
+    /// to build it once for many frames); that alone can fail, when the
+    /// scene cannot be voxelised.
+    pub fn render<S>(&self, scene: &Scene, threads: Option<usize>) -> Result<(Film, S), String>
+    where
+        S: RenderStats,
+    {
+        Ok(match self {
+            Self::Whitted => render(scene, &Whitted, threads),
+            Self::Direct | Self::Path(_) => {
+                let p = self
+                    .path_tracer()
+                    .expect("direct and path are path tracers");
+                // Over groups of samples where the lanes cover the scene.
+                lanes::render(scene, &p, threads)
+            }
+            Self::FloodFill(_) => self.prepare(scene)?.frame(scene, threads)?,
+        })
+    }
+}
+
+impl std::str::FromStr for IntegratorKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::parse(s)
+    }
+}
+
+impl std::fmt::Display for IntegratorKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
+/// Render every pixel of the scene's camera with the scene's sampler and
+/// reconstruction filter. `threads = None` uses rayon's global pool (all
+/// cores).
+pub fn render<I, S>(scene: &Scene, integrator: &I, threads: Option<usize>) -> (Film, S)
+where
+    I: Integrator,
+    S: RenderStats,
+{
+    in_pool(threads, || {
+        let (film, total, _) = render_film::<I, S>(scene, integrator, false);
+        (film, total)
+    })
+}
+
+/// Render with full counters and keep each pixel's own counts (the cost
+/// buffers behind per-pixel heatmaps): returns the film, the totals and one
+/// [`Counters`] per pixel, row-major.
+pub fn render_with_costs<I: Integrator>(
+    scene: &Scene,
+    integrator: &I,
+    threads: Option<usize>,
+) -> (Film, Counters, Vec<Counters>) {
+    in_pool(threads, || {
+        render_film::<I, Counters>(scene, integrator, true)
+    })
+}
+
+/// Run `f` on a pool of `threads` workers, or on rayon's global pool.
+pub(crate) fn in_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T {
+    match threads {
+        None => f(),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build()
+            .expect("building a rayon thread pool") // only fails on OS thread exhaustion
+            .install(f),
+    }
+}
+
+/// What one image row produced: its statistics total, each pixel's own
+/// statistics (when asked for) and its samples (when a filter wider than
+/// the box needs them).
+struct RowOutput<S> {
+    total: S,
+    per_pixel: Vec<S>,
+    samples: Vec<FilmSample>,
+}
+
+/// The render loop: parallel over rows, one sink per row. Returns the film
+/// (filtered if the scene asks for a filter), the totals and, if
+/// `per_pixel`, each pixel's statistics (else an empty vector).
+fn render_film<I, S>(scene: &Scene, integrator: &I, per_pixel: bool) -> (Film, S, Vec<S>)
+where
+    I: Integrator,
+    S: RenderStats,
+{
+    if let Sampler::Adaptive { threshold, depth } = scene.settings.sampler {
+        let (film, pixels) = adaptive::render::<I, S>(scene, integrator, threshold, depth);
+        let mut total = S::default();
+        for p in &pixels {
+            total += p.clone();
+        }
+        return (film, total, if per_pixel { pixels } else { Vec::new() });
+    }
+    let cam = &scene.camera;
+    let spp = scene.settings.sampler.spp();
+    let filter = scene.settings.filter;
+    let keep_samples = filter != Filter::Box;
+    let mut film = Film::new(cam.width, cam.height);
+    progress::announce(u64::from(cam.height));
+    let rows: Vec<RowOutput<S>> = film
+        .pixels
+        .par_chunks_mut(cam.width as usize)
+        .enumerate()
+        // One row per task: rayon otherwise runs runs of rows that nobody
+        // can steal from once started, and rows differ in cost.
+        .with_max_len(1)
+        .map(|(py, row)| {
+            let mut out = RowOutput {
+                total: S::default(),
+                per_pixel: Vec::with_capacity(if per_pixel { row.len() } else { 0 }),
+                samples: Vec::with_capacity(if keep_samples {
+                    row.len() * spp as usize
+                } else {
+                    0
+                }),
+            };
+            for (px, pixel) in row.iter_mut().enumerate() {
+                let mut stats = S::default();
+                let samples = keep_samples.then_some(&mut out.samples);
+                *pixel = render_pixel(scene, integrator, px as u32, py as u32, samples, &mut stats);
+                if per_pixel {
+                    out.per_pixel.push(stats.clone());
+                }
+                out.total += stats;
+            }
+            progress::row_done();
+            out
+        })
+        .collect();
+    let mut total = S::default();
+    let mut pixels = Vec::new();
+    let mut samples = Vec::new();
+    for row in rows {
+        total += row.total;
+        pixels.extend(row.per_pixel);
+        samples.extend(row.samples);
+    }
+    if keep_samples {
+        film.reconstruct(filter, &samples, spp as usize);
+    }
+    (film, total, pixels)
+}
+
+/// One pixel's samples through the scene's sampler: their running
+/// statistics, and each sample's film position and value appended to
+/// `samples` when given.
+#[inline]
+fn render_pixel<I: Integrator, S: Stats>(
+    scene: &Scene,
+    integrator: &I,
+    px: u32,
+    py: u32,
+    mut samples: Option<&mut Vec<FilmSample>>,
+    stats: &mut S,
+) -> PixelStats {
+    let sampler = scene.settings.sampler;
+    let seed = scene.settings.seed;
+    let mut acc = PixelStats::default();
+    for index in 0..sampler.spp() {
+        let off = sampler.sample(px, py, index, seed);
+        let pos = Vec2::new(px as f32, py as f32) + off;
+        let ray = scene.camera.generate_ray(pos.x, pos.y);
+        let ctx = SampleContext {
+            px,
+            py,
+            index,
+            seed,
+        };
+        let value = integrator.radiance(scene, &ray, &ctx, stats);
+        acc.add(value);
+        if let Some(s) = samples.as_deref_mut() {
+            s.push(FilmSample { pos, value });
+        }
+    }
+    acc
+}

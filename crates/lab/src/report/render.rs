@@ -1,0 +1,393 @@
+//! The `raylab render` report: render a scene file to an image, time it,
+//! and say what it cost. [`RenderReport::run`] does the work (load the
+//! scene, prepare the integrator, render one frame, compare with a
+//! reference, write the image and the samples-per-pixel map) and returns
+//! the numbers; its [`Display`](std::fmt::Display) is the text the command
+//! prints. Part of the top-layer [`crate::report`].
+
+use crate::analysis::plot::Heatmap;
+use crate::analysis::{compare, ImageMetrics};
+use anyhow::{Context, Result};
+use raylab::accel::AccelKind;
+use raylab::film::Filter;
+use raylab::integrator::{IntegratorKind, Prepared};
+use raylab::io::image::{read_image, write_image, ImageFormat};
+use raylab::io::scene_file::{load_scene, Overrides};
+use raylab::sampler::Sampler;
+use raylab::stats::{Counters, RayCounts};
+use std::fmt;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// What `raylab render` was asked to do.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// The output image; its extension chooses the format (.png or .exr).
+    pub output: PathBuf,
+    /// Settings that override the scene file's (size, sampler, filter,
+    /// accelerator, depth, seed).
+    pub overrides: Overrides,
+    /// The integrator, with its options already applied.
+    pub integrator: IntegratorKind,
+    /// A reference image to report MSE, relMSE and ꟻLIP against.
+    pub reference: Option<PathBuf>,
+    /// Where to write each pixel's sample count as a heatmap PNG (+ SVG).
+    pub spp_map: Option<PathBuf>,
+    /// Render threads; `None` means all cores.
+    pub threads: Option<usize>,
+    /// Show a progress bar on a terminal ([`super::progress`]).
+    pub progress: bool,
+    /// Where to render: the CPU, or the GPU port ([`raylab_gpu`]).
+    pub device: Device,
+}
+
+/// Where a render runs (`--device cpu|gpu`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Device {
+    #[default]
+    Cpu,
+    /// The WGSL port of the Whitted integrator (the `gpu` feature).
+    Gpu,
+}
+
+impl Device {
+    /// Parse `cpu` or `gpu`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "cpu" => Ok(Device::Cpu),
+            "gpu" => Ok(Device::Gpu),
+            _ => Err(format!("unknown device `{s}` (expected `cpu` or `gpu`)")),
+        }
+    }
+}
+
+/// Render `scene` on the GPU, with counters when `counters` is set: the
+/// adapter's description and the render. The GPU port is Whitted's
+/// integrator only.
+#[cfg(feature = "gpu")]
+pub fn gpu_render(
+    scene: &raylab::scene::Scene,
+    integrator: &IntegratorKind,
+    counters: bool,
+) -> Result<(String, raylab_gpu::GpuRender)> {
+    if *integrator != IntegratorKind::Whitted {
+        anyhow::bail!(
+            "the GPU port renders the Whitted integrator only; `{}` runs with --device cpu",
+            integrator.name()
+        );
+    }
+    let gpu = raylab_gpu::Gpu::new().map_err(anyhow::Error::msg)?;
+    let out = gpu.render(scene, counters).map_err(anyhow::Error::msg)?;
+    Ok((gpu.describe(), out))
+}
+
+#[cfg(not(feature = "gpu"))]
+pub fn gpu_render(
+    _: &raylab::scene::Scene,
+    _: &IntegratorKind,
+    _: bool,
+) -> Result<(String, std::convert::Infallible)> {
+    anyhow::bail!("this raylab was built without the `gpu` feature: --device gpu is not available")
+}
+
+/// The flood-fill cache of a render, as the report shows it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CacheReport {
+    /// Voxels along x, y and z.
+    pub dims: [usize; 3],
+    /// Edge length of a voxel.
+    pub voxel_size: f32,
+    /// Seconds to build the cache.
+    pub build_s: f64,
+    /// Propagation steps taken so far.
+    pub steps: u64,
+    /// Seconds of warm-up propagation before the frame.
+    pub warm_s: f64,
+    /// Propagation steps per frame.
+    pub steps_per_frame: u32,
+}
+
+/// What one `raylab render` did and measured.
+#[derive(Clone, Debug)]
+pub struct RenderReport {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// The image written.
+    pub output: PathBuf,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// The pixel sampler.
+    pub sampler: Sampler,
+    /// The reconstruction filter.
+    pub filter: Filter,
+    /// The accelerator.
+    pub accel: AccelKind,
+    /// Render threads.
+    pub threads: usize,
+    /// The integrator.
+    pub integrator: IntegratorKind,
+    /// Adaptive sampler only: mean and largest rays per pixel.
+    pub adaptive_spp: Option<(f64, u32)>,
+    /// Primitives in the scene.
+    pub primitives: usize,
+    /// Triangles among them.
+    pub triangles: usize,
+    /// Point lights.
+    pub point_lights: usize,
+    /// Emitters sampled (area lights).
+    pub emitters: usize,
+    /// Rays traced, by kind.
+    pub rays: Counters,
+    /// Flood fill only: its cache.
+    pub cache: Option<CacheReport>,
+    /// Seconds to load the scene (and build its accelerator).
+    pub load_s: f64,
+    /// Seconds to render the frame.
+    pub render_s: f64,
+    /// Mean per-sample variance and mean variance of the pixel mean (over
+    /// pixels and channels); `None` for the adaptive sampler, which keeps
+    /// no variance.
+    pub variance: Option<(f64, f64)>,
+    /// The reference image and the errors against it.
+    pub error: Option<(PathBuf, ImageMetrics)>,
+    /// GPU renders: the adapter, and where the time went.
+    #[cfg(feature = "gpu")]
+    pub gpu: Option<(String, raylab_gpu::GpuTimes)>,
+}
+
+impl RenderReport {
+    /// Render as `opts` says: load the scene (timed), read the reference
+    /// (before rendering, so a bad one fails fast), prepare the integrator
+    /// (flood fill builds and warms up its cache here, timed apart from the
+    /// frame), render one frame (timed), compare with the reference, and
+    /// write the image and the samples-per-pixel map.
+    pub fn run(opts: &RenderOptions) -> Result<Self> {
+        if ImageFormat::from_path(&opts.output).is_none() {
+            anyhow::bail!(
+                "{}: unsupported output extension (expected .png or .exr)",
+                opts.output.display()
+            );
+        }
+        if opts.threads == Some(0) {
+            anyhow::bail!("--threads must be at least 1");
+        }
+        let t0 = Instant::now();
+        let scene = load_scene(&opts.scene, &opts.overrides)?;
+        let load_s = t0.elapsed().as_secs_f64();
+        let integrator = opts.integrator;
+        // Read the reference before rendering, so a bad one fails fast.
+        let reference = opts
+            .reference
+            .as_deref()
+            .map(|p| read_image(p).map(|img| (p, img)))
+            .transpose()?;
+        // Flood fill's cache is built and warmed up here, timed apart from
+        // the frame (one frame = its propagation steps and the render).
+        let mut prepared = integrator
+            .prepare(&scene)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", opts.scene.display()))?;
+        let t1 = Instant::now();
+        #[cfg(feature = "gpu")]
+        let mut gpu = None;
+        let (film, counts) = match opts.device {
+            Device::Cpu => {
+                let watch = super::progress::Watch::start("render", opts.progress);
+                let (film, RayCounts(counts)) =
+                    prepared
+                        .frame::<RayCounts>(&scene, opts.threads)
+                        .map_err(|e| anyhow::anyhow!("{}: {e}", opts.scene.display()))?;
+                drop(watch);
+                (film, counts)
+            }
+            Device::Gpu => {
+                let (adapter, out) = gpu_render(&scene, &integrator, true)
+                    .with_context(|| format!("{}", opts.scene.display()))?;
+                #[cfg(feature = "gpu")]
+                {
+                    let total = out.total();
+                    gpu = Some((adapter, out.times));
+                    (out.film, total)
+                }
+                #[cfg(not(feature = "gpu"))]
+                match (adapter, out) {}
+            }
+        };
+        let render_s = t1.elapsed().as_secs_f64();
+        let image = film.image();
+        let error = match &reference {
+            None => None,
+            Some((path, img)) => Some((
+                path.to_path_buf(),
+                compare(&image, img)
+                    .map_err(|e| anyhow::anyhow!("cannot compare with {}: {e}", path.display()))?,
+            )),
+        };
+        match ImageFormat::from_path(&opts.output) {
+            Some(ImageFormat::Exr) => raylab::io::image::write_film_exr(&opts.output, &film),
+            _ => write_image(&opts.output, &image),
+        }
+        .with_context(|| format!("writing {}", opts.output.display()))?;
+        if let Some(map) = &opts.spp_map {
+            let stem = map.with_extension("");
+            let mut heat = Heatmap::new(
+                format!("{}: samples per pixel", scene.settings.sampler.name()),
+                film.count_array(),
+            );
+            heat.value_label = "camera rays traced".into();
+            heat.save(&stem)
+                .with_context(|| format!("writing {}.png", stem.display()))?;
+        }
+
+        let sampler = scene.settings.sampler;
+        let cache = match &prepared {
+            Prepared::FloodFill(ff) => Some(CacheReport {
+                dims: ff.cache.dims(),
+                voxel_size: ff.cache.voxel_size(),
+                build_s: ff.build_s,
+                steps: ff.cache.steps(),
+                warm_s: ff.warm_s,
+                steps_per_frame: ff.cache.config().steps_per_frame,
+            }),
+            _ => None,
+        };
+        Ok(Self {
+            scene: opts.scene.clone(),
+            output: opts.output.clone(),
+            width: scene.camera.width,
+            height: scene.camera.height,
+            sampler,
+            filter: scene.settings.filter,
+            accel: scene.accel.kind(),
+            threads: opts.threads.unwrap_or_else(rayon::current_num_threads),
+            integrator,
+            adaptive_spp: sampler.is_adaptive().then(|| film.samples_per_pixel()),
+            primitives: scene.prims.len(),
+            triangles: scene.triangle_count(),
+            point_lights: scene.lights.len(),
+            emitters: scene.area_lights.emitters.len(),
+            rays: counts,
+            cache,
+            load_s,
+            render_s,
+            // The adaptive sampler's leaf values are not independent
+            // samples: it keeps no variance.
+            variance: (!sampler.is_adaptive())
+                .then(|| (film.mean_sample_variance(), film.mean_variance_of_mean())),
+            error,
+            #[cfg(feature = "gpu")]
+            gpu,
+        })
+    }
+}
+
+impl RenderReport {
+    /// `N threads` on the CPU, `GPU` on the GPU.
+    fn device_name(&self) -> String {
+        #[cfg(feature = "gpu")]
+        if self.gpu.is_some() {
+            return "GPU".into();
+        }
+        format!("{} threads", self.threads)
+    }
+}
+
+impl fmt::Display for RenderReport {
+    /// The lines `raylab render` prints: scene, image, sampling, geometry,
+    /// rays, cache, time, variance, error and the file written.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "scene      {}", self.scene.display())?;
+        writeln!(
+            f,
+            "image      {}×{}  {} spp ({})  accel {}  {}  integrator {}",
+            self.width,
+            self.height,
+            self.sampler.spp(),
+            self.sampler.name(),
+            self.accel,
+            self.device_name(),
+            self.integrator
+        )?;
+        if let Some((mean, max)) = self.adaptive_spp {
+            writeln!(
+                f,
+                "adaptive   {mean:.3} rays per pixel on average (cost T = {mean:.3} × one centre \
+                 sample), {max} at most"
+            )?;
+        } else if self.filter != Filter::Box {
+            writeln!(f, "filter     {}", self.filter.name())?;
+        }
+        writeln!(
+            f,
+            "geometry   {} primitives ({} triangles), {} point lights, {} emitters sampled",
+            self.primitives, self.triangles, self.point_lights, self.emitters
+        )?;
+        let c = &self.rays;
+        writeln!(
+            f,
+            "rays       {} total: {} camera, {} shadow, {} reflection, {} refraction, {} path",
+            c.rays(),
+            c.camera_rays,
+            c.shadow_rays,
+            c.reflection_rays,
+            c.refraction_rays,
+            c.path_rays
+        )?;
+        if let Some(cache) = &self.cache {
+            let [nx, ny, nz] = cache.dims;
+            writeln!(
+                f,
+                "cache      {nx}×{ny}×{nz} voxels of {:.4}, built in {:.3} s, {} steps ({:.3} s \
+                 warm-up, then {} per frame)",
+                cache.voxel_size, cache.build_s, cache.steps, cache.warm_s, cache.steps_per_frame
+            )?;
+        }
+        writeln!(
+            f,
+            "time       load {:.3} s, render {:.3} s, {:.2} Mrays/s",
+            self.load_s,
+            self.render_s,
+            c.rays() as f64 / self.render_s / 1e6
+        )?;
+        #[cfg(feature = "gpu")]
+        if let Some((adapter, t)) = &self.gpu {
+            writeln!(f, "device     GPU: {adapter}")?;
+            writeln!(
+                f,
+                "gpu time   upload {:.4} s, shader build {:.4} s, kernel {:.4} s ({}), readback \
+                 {:.4} s; {:.2} Mrays/s in the kernel (counters on)",
+                t.upload,
+                t.compile,
+                t.kernel,
+                if t.timestamped {
+                    "GPU timestamps"
+                } else {
+                    "wall time of a synchronised submit"
+                },
+                t.readback,
+                c.rays() as f64 / t.kernel / 1e6
+            )?;
+        }
+        if let Some((per_sample, of_mean)) = self.variance {
+            writeln!(
+                f,
+                "variance   {per_sample:.6e} per sample, {of_mean:.6e} of the pixel mean (mean over \
+                 pixels and channels)"
+            )?;
+        }
+        if let Some((path, m)) = &self.error {
+            writeln!(
+                f,
+                "error      MSE {:.6e}, relMSE {:.6e}, FLIP {:.6} against {}",
+                m.mse,
+                m.rel_mse,
+                m.flip.mean,
+                path.display()
+            )?;
+        }
+        writeln!(f, "wrote      {}", self.output.display())
+    }
+}
