@@ -148,7 +148,7 @@ pub fn meeting<R: Real>(a: &ShapeR<R>, b: &ShapeR<R>) -> Option<Curve<R>> {
 /// of `viewpoint`. Close up on a sphere sunk into a floor, taken at the
 /// usual 10⁻³ pixel the jump read the band's dark instead of the lit
 /// sphere, and the image mean's derivative came out 241 standard errors
-/// off (`crates/core/tests/boundary.rs`); at 512×512 pixels of the whole scene, 25 %
+/// off (`crates/core/tests/boundary/`); at 512×512 pixels of the whole scene, 25 %
 /// off.
 pub fn meeting_band(a: &ShapeR<f32>, b: &ShapeR<f32>, s: Vec3, viewpoint: Vec3) -> f32 {
     let normal = |shape: &ShapeR<f32>| {

@@ -63,7 +63,7 @@
 //! sees both jumps; the excess shrinks as √ε in scene units, so it fades
 //! with the image's resolution (measured on two spheres lit from the
 //! side: the boundary term 36 % high at 64×64 pixels, 14 % at 256×256,
-//! within the noise at 1024×1024; `crates/core/tests/boundary.rs`).
+//! within the noise at 1024×1024; `crates/core/tests/boundary/`).
 //!
 //! **In flat mirrors** ([`mirror`]): under Whitted, what a reflecting
 //! plane, lone triangle or planar mesh shows is the scene seen from the

@@ -62,7 +62,7 @@
 //! camera under `path:2`, its light moved and deformed under `direct`,
 //! and two spheres through each other under `path:1`, whose meeting the
 //! floor sees (98.8 % of pixels without the meeting curves here)
-//! (`crates/core/tests/boundary.rs`).
+//! (`crates/core/tests/boundary/`).
 //!
 //! **Variance.** The terms are unbiased but not bounded: near a vertex an
 //! edge's image on the sphere of directions grows as 1/distance, and a

@@ -131,7 +131,7 @@ const MIN_CELLS: usize = 128;
 /// interior term's heavy tail: rim zones are not sampled through glass),
 /// and the image mean 4.63·10⁻³ against 4.82·10⁻³ without and 4.16·10⁻³
 /// from central differences (S1's contacts hold most of the rest).
-/// Cost, at S1's 32×32 pixels in `crates/core/tests/boundary.rs`: the boundary term
+/// Cost, at S1's 32×32 pixels in `crates/core/tests/boundary/`: the boundary term
 /// takes about 0.6 s with none, 1.0 s with 4 levels and 1.1 s with 5,
 /// and that file's S1 test 85, 150 and 220 s (measured before marching
 /// squares kept a mask of the refined cells, which took the whole file
