@@ -39,7 +39,7 @@ const CRATES: &[(&str, &str, &[&[&str]])] = &[
             &["diff"],
         ],
     ),
-    ("gpu", "raylab-gpu", &[&["upload"]]),
+    ("gpu", "raylab-gpu", &[&["error"], &["upload"]]),
     (
         "lab",
         "raylab-lab",

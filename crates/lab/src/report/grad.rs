@@ -5,7 +5,7 @@
 //! Part of the top-layer [`crate::report`].
 
 use crate::analysis::plot::Heatmap;
-use anyhow::{anyhow, Context, Result};
+use crate::{Error, FileOp};
 use raylab::diff::{self, Comparison, Gradients, Param};
 use raylab::integrator::IntegratorKind;
 use raylab::io::image::{write_exr_channels, write_film_exr, ChannelData};
@@ -22,18 +22,27 @@ pub struct FdCheck {
     pub step: Option<f32>,
 }
 
+/// Text that is not a `--check` value.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FdCheckError {
+    /// `fd:H` with H not a positive number.
+    #[error("the step in `fd:{0}` must be a positive number")]
+    Step(String),
+    /// Neither `fd` nor `fd:H`.
+    #[error("unknown check `{0}` (expected `fd` or `fd:H`, H the finite-difference step)")]
+    Unknown(String),
+}
+
 impl FdCheck {
     /// Parse `fd` or `fd:H` (H a positive number).
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, FdCheckError> {
         match s.split_once(':') {
             None if s == "fd" => Ok(Self { step: None }),
             Some(("fd", h)) => match h.parse::<f32>() {
                 Ok(h) if h > 0.0 && h.is_finite() => Ok(Self { step: Some(h) }),
-                _ => Err(format!("the step in `fd:{h}` must be a positive number")),
+                _ => Err(FdCheckError::Step(h.to_string())),
             },
-            _ => Err(format!(
-                "unknown check `{s}` (expected `fd` or `fd:H`, H the finite-difference step)"
-            )),
+            _ => Err(FdCheckError::Unknown(s.to_string())),
         }
     }
 }
@@ -88,26 +97,26 @@ pub struct GradReport {
 }
 
 impl GradReport {
-    pub fn run(opts: &GradOptions) -> Result<Self> {
+    pub fn run(opts: &GradOptions) -> Result<Self, Error> {
         let (text, scene, file) =
-            diff::load(&opts.scene, &opts.overrides).map_err(|e| anyhow!("{e}"))?;
-        let params = diff::resolve_all(&opts.params, &file).map_err(|e| anyhow!("{e}"))?;
-        diff::check_supported(&scene, &opts.integrator).map_err(|e| anyhow!("{e}"))?;
+            diff::load(&opts.scene, &opts.overrides).map_err(Error::Gradient)?;
+        let params = diff::resolve_all(&opts.params, &file).map_err(Error::Gradient)?;
+        diff::check_supported(&scene, &opts.integrator).map_err(Error::Gradient)?;
         let step = |p: &diff::Param, c: FdCheck| c.step.unwrap_or_else(|| diff::default_step(p));
         if let Some(c) = opts.check {
             for p in &params {
                 diff::check_step(&opts.scene, &text, &file, &opts.overrides, p, step(p, c))
-                    .map_err(|e| anyhow!("{e}"))?;
+                    .map_err(Error::Gradient)?;
             }
         }
         std::fs::create_dir_all(&opts.out_dir)
-            .with_context(|| format!("{}: cannot create folder", opts.out_dir.display()))?;
+            .map_err(|e| Error::io(&opts.out_dir, FileOp::CreateFolder, e))?;
 
         let start = Instant::now();
         let (film, _) = opts
             .integrator
             .render::<NoStats>(&scene, opts.threads)
-            .map_err(|e| anyhow!("{e}"))?;
+            .map_err(Error::Render)?;
         let render_s = start.elapsed().as_secs_f64();
         write_film_exr(&opts.out_dir.join("image.exr"), &film)?;
 
@@ -122,7 +131,7 @@ impl GradReport {
             opts.visibility,
             opts.threads,
         )
-        .map_err(|e| anyhow!("{e}"))?;
+        .map_err(Error::Gradient)?;
         drop(watch);
         let gradient_s = start.elapsed().as_secs_f64();
 
@@ -146,7 +155,7 @@ impl GradReport {
                         opts.integrator,
                         opts.threads,
                     )
-                    .map_err(|e| anyhow!("{e}"))?;
+                    .map_err(Error::Gradient)?;
                     let mut map = Heatmap::signed(
                         format!("AD − FD: {} (h = {:.3e})", p.name, cmp.h),
                         &cmp.difference,
@@ -184,7 +193,7 @@ impl GradReport {
 
 /// `DIR/<param>.exr` (R, G, B = ∂pixel/∂param, `variance.R/G/B`, `count`)
 /// and `DIR/<param>.png` (+ .svg): the channel mean on a diverging scale.
-fn write_param_images(dir: &Path, g: &Gradients, i: usize) -> Result<()> {
+fn write_param_images(dir: &Path, g: &Gradients, i: usize) -> Result<(), Error> {
     let name = &g.params[i].name;
     let (w, h) = (g.width as usize, g.height as usize);
     let plane =

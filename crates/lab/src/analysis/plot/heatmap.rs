@@ -4,10 +4,9 @@
 
 use super::axis::{to_plot, Axis, Scale};
 use super::{
-    draw_bitmap, fit_text, font, plot_err, save_figure, Figure, Palette, AXIS_DESC_PX, TICK_PX,
-    TITLE_PX,
+    draw_bitmap, fit_text, font, plot_err, save_figure, Figure, Palette, PlotError, AXIS_DESC_PX,
+    TICK_PX, TITLE_PX,
 };
-use anyhow::{ensure, Context};
 use ndarray::Array2;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -87,8 +86,8 @@ impl Heatmap {
 
     /// Write `stem.png` and `stem.svg`. Fails when the data is empty, or
     /// when `log_scale` is set and no value is positive.
-    pub fn save(&self, stem: &Path) -> anyhow::Result<()> {
-        save_figure(self, stem).with_context(|| format!("heatmap \"{}\"", self.title))
+    pub fn save(&self, stem: &Path) -> Result<(), PlotError> {
+        save_figure(self, stem).map_err(|e| PlotError::figure("heatmap", &self.title, e))
     }
 
     fn scale(&self) -> Scale {
@@ -132,27 +131,29 @@ impl Figure for Heatmap {
         )
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
         let (rows, cols) = self.data.dim();
-        ensure!(
-            rows > 0 && cols > 0,
-            "heatmap data is empty ({rows}×{cols})"
-        );
+        if rows == 0 || cols == 0 {
+            return Err(PlotError::Invalid(format!(
+                "heatmap data is empty ({rows}×{cols})"
+            )));
+        }
         let scale = self.scale();
         let us: Vec<f64> = self
             .data
             .iter()
             .filter_map(|&v| to_plot(scale, v))
             .collect();
-        ensure!(
-            !us.is_empty(),
-            "no value can be shown{}",
-            if self.log_scale {
-                " on a log scale (none is positive); use a linear scale"
-            } else {
-                " (all are NaN or infinite)"
-            }
-        );
+        if us.is_empty() {
+            return Err(PlotError::Invalid(format!(
+                "no value can be shown{}",
+                if self.log_scale {
+                    " on a log scale (none is positive); use a linear scale"
+                } else {
+                    " (all are NaN or infinite)"
+                }
+            )));
+        }
         let mut vmin = us.iter().copied().fold(f64::INFINITY, f64::min);
         let mut vmax = us.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         if let Some((lo, hi)) = self.range {

@@ -5,8 +5,7 @@
 
 use super::axis::{to_plot, Axis, Scale};
 use super::chart::{build_chart, XTicks};
-use super::{plot_err, rgb, save_figure, Figure, CHART_SIZE, OKABE_ITO, TICK_PX};
-use anyhow::{ensure, Context};
+use super::{plot_err, rgb, save_figure, Figure, PlotError, CHART_SIZE, OKABE_ITO, TICK_PX};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -90,8 +89,8 @@ impl Histogram {
     }
 
     /// Write `stem.png` and `stem.svg`.
-    pub fn save(&self, stem: &Path) -> anyhow::Result<()> {
-        save_figure(self, stem).with_context(|| format!("histogram \"{}\"", self.title))
+    pub fn save(&self, stem: &Path) -> Result<(), PlotError> {
+        save_figure(self, stem).map_err(|e| PlotError::figure("histogram", &self.title, e))
     }
 }
 
@@ -100,13 +99,18 @@ impl Figure for Histogram {
         self.size
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
-        ensure!(self.bins >= 1, "a histogram needs at least one bin");
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
+        if self.bins < 1 {
+            return Err(PlotError::Invalid(
+                "a histogram needs at least one bin".into(),
+            ));
+        }
         let (lo, hi) = self.bin_range().unwrap_or((0.0, 1.0));
-        ensure!(
-            lo.is_finite() && hi.is_finite() && hi > lo,
-            "histogram range ({lo}, {hi}) is empty or not finite"
-        );
+        if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+            return Err(PlotError::Invalid(format!(
+                "histogram range ({lo}, {hi}) is empty or not finite"
+            )));
+        }
         let counts = bin_counts(&self.values, self.bins, (lo, hi));
         let ys: Vec<f64> = counts
             .iter()

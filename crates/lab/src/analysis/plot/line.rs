@@ -8,10 +8,9 @@ use super::chart::{
     LegendPosition, SeriesStyle, XTicks, MARKERS,
 };
 use super::{
-    check_figure, plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE, LINE_WIDTH,
-    MARKER_RADIUS, TICK_PX,
+    check_figure, plot_err, rgb, save_figure, series_colour, Figure, PlotError, CHART_SIZE,
+    LINE_WIDTH, MARKER_RADIUS, TICK_PX,
 };
-use anyhow::{anyhow, Context};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -96,15 +95,15 @@ impl LineChart {
 
     /// Write `stem.png` and `stem.svg`. Fails (writing nothing) when a log
     /// axis has data but none of it is positive.
-    pub fn save(&self, stem: &Path) -> anyhow::Result<()> {
-        save_figure(self, stem).with_context(|| format!("line chart \"{}\"", self.title))
+    pub fn save(&self, stem: &Path) -> Result<(), PlotError> {
+        save_figure(self, stem).map_err(|e| PlotError::figure("line chart", &self.title, e))
     }
 
     /// Draw the chart in memory only: an error where [`Self::save`] would
     /// fail (a title or axis label that does not fit, a log axis without
     /// positive data).
-    pub fn check(&self) -> anyhow::Result<()> {
-        check_figure(self).with_context(|| format!("line chart \"{}\"", self.title))
+    pub fn check(&self) -> Result<(), PlotError> {
+        check_figure(self).map_err(|e| PlotError::figure("line chart", &self.title, e))
     }
 
     /// The drawable points of each series in plot space, split into runs:
@@ -142,7 +141,7 @@ impl LineChart {
             .collect()
     }
 
-    fn axes(&self, runs: &[Vec<Vec<(f64, f64)>>]) -> anyhow::Result<(Axis, Axis)> {
+    fn axes(&self, runs: &[Vec<Vec<(f64, f64)>>]) -> Result<(Axis, Axis), PlotError> {
         let all = || runs.iter().flatten().flatten();
         let xs: Vec<f64> = all().map(|p| p.0).collect();
         let mut ys: Vec<f64> = all().map(|p| p.1).collect();
@@ -160,11 +159,11 @@ impl LineChart {
                 .filter(|(_, s)| *s == Scale::Log10)
                 .map(|(n, _)| *n)
                 .collect();
-            return Err(anyhow!(
+            return Err(PlotError::Invalid(format!(
                 "no point has a positive value on the log {} axis; \
                  use a linear scale for data that is all zero or negative",
                 which.join(" and ")
-            ));
+            )));
         }
         Ok((
             Axis::fit(self.x_scale, &xs, 0.03, false),
@@ -178,7 +177,7 @@ impl Figure for LineChart {
         self.size
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
         let runs = self.plot_runs();
         let (x, y) = self.axes(&runs)?;
         let shown: Vec<usize> = (0..self.series.len())

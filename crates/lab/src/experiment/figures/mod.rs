@@ -39,7 +39,7 @@ use super::data::Table;
 use super::manifest::{FigureKind, FigureSpec, ReferenceStyle};
 use super::meta::{RatioSummary, SeriesMean};
 use crate::analysis::plot::{BarChart, BarSeries, LineChart, Scale, Series, SeriesStyle};
-use anyhow::anyhow;
+use crate::Error;
 use data::{mean, Data};
 use spread::{LINE_ERROR_LABEL, RATIO_ERROR_LABEL};
 use std::path::Path;
@@ -81,7 +81,7 @@ pub fn draw(
     table: &Table,
     param_columns: &[String],
     dir: &Path,
-) -> anyhow::Result<Option<RatioSummary>> {
+) -> Result<Option<RatioSummary>, Error> {
     let fig = Data::new(spec, table)?;
     let stem = dir.join(&spec.file);
     let scale = |log: bool| if log { Scale::Log10 } else { Scale::Linear };
@@ -90,8 +90,9 @@ pub fn draw(
             let mut chart = fig.line_chart(spec, scale);
             let flag = match spec.dashed_where.as_deref() {
                 None => None,
-                Some(c) => Some(table.column(c).ok_or_else(|| {
-                    anyhow!("figure `{}`: data.csv has no column `{c}`", spec.file)
+                Some(c) => Some(table.column(c).ok_or_else(|| Error::Figure {
+                    file: spec.file.clone(),
+                    message: format!("data.csv has no column `{c}`"),
                 })?),
             };
             let estimated = |r: &[String]| flag.is_some_and(|f| r[f] == "true");
@@ -168,7 +169,7 @@ pub fn draw(
 /// data are not checked): an error when a text does not fit even at the
 /// smallest text size. Lets a test check every manifest's figures without
 /// running the experiments.
-pub fn check_text(spec: &FigureSpec) -> anyhow::Result<()> {
+pub fn check_text(spec: &FigureSpec) -> Result<(), Error> {
     let scale = |log: bool| if log { Scale::Log10 } else { Scale::Linear };
     let x_label = spec.x_label.clone().unwrap_or_else(|| spec.x.clone());
     let y_label = match spec.kind {
@@ -198,7 +199,10 @@ pub fn check_text(spec: &FigureSpec) -> anyhow::Result<()> {
             chart.check()
         }
     };
-    checked.map_err(|e| anyhow!("figure `{}`: {e:#}", spec.file))
+    checked.map_err(|e| Error::Figure {
+        file: spec.file.clone(),
+        message: e.to_string(),
+    })
 }
 
 /// The y label of a ratio figure: the manifest's, or `y(num) / y(den)`.

@@ -234,40 +234,44 @@ impl<A: Params, B: Params> Params for (A, B) {
 }
 
 /// A value written as a string and parsed by its own parser (sampler and
-/// accelerator names, "WxH", …), whose error text becomes the message.
+/// accelerator names, "WxH", …), whose error becomes the message: a
+/// [`ParamError`] of the run as a whole, which the deserializer blames on
+/// the parameter being read.
 pub trait FromParam: Sized {
     /// Parse the string a manifest gives.
-    fn from_param(s: &str) -> Result<Self, String>;
+    fn from_param(s: &str) -> Result<Self, ParamError>;
 }
 
 impl FromParam for Sampler {
-    fn from_param(s: &str) -> Result<Self, String> {
-        Sampler::parse(s)
+    fn from_param(s: &str) -> Result<Self, ParamError> {
+        Sampler::parse(s).map_err(ParamError::run)
     }
 }
 
 impl FromParam for Filter {
-    fn from_param(s: &str) -> Result<Self, String> {
-        Filter::parse(s)
+    fn from_param(s: &str) -> Result<Self, ParamError> {
+        Filter::parse(s).map_err(ParamError::run)
     }
 }
 
 impl FromParam for AccelKind {
-    fn from_param(s: &str) -> Result<Self, String> {
-        s.parse::<AccelKind>().map_err(|e| e.to_string())
+    fn from_param(s: &str) -> Result<Self, ParamError> {
+        s.parse::<AccelKind>()
+            .map_err(|e| ParamError::run(e.to_string()))
     }
 }
 
 impl FromParam for IntegratorKind {
-    fn from_param(s: &str) -> Result<Self, String> {
-        IntegratorKind::parse(s)
+    fn from_param(s: &str) -> Result<Self, ParamError> {
+        IntegratorKind::parse(s).map_err(ParamError::run)
     }
 }
 
 #[cfg(feature = "embree")]
 impl FromParam for raylab::accel::EmbreeConfig {
-    fn from_param(s: &str) -> Result<Self, String> {
-        s.parse::<Self>().map_err(|e| e.to_string())
+    fn from_param(s: &str) -> Result<Self, ParamError> {
+        s.parse::<Self>()
+            .map_err(|e| ParamError::run(e.to_string()))
     }
 }
 
@@ -305,7 +309,7 @@ pub fn or_default<T: FromParam>(
 ) -> Result<T, ParamError> {
     match value {
         Some(v) => Ok(v),
-        None => T::from_param(default).map_err(|e| ParamError::new(name, e)),
+        None => T::from_param(default).map_err(|e| e.of_param(name)),
     }
 }
 
@@ -373,9 +377,10 @@ impl Resolution {
 }
 
 impl FromParam for Resolution {
-    fn from_param(s: &str) -> Result<Self, String> {
-        Resolution::parse(s)
-            .ok_or_else(|| format!("`{s}` is not \"WxH\" with sides in 1..={MAX_SIDE}"))
+    fn from_param(s: &str) -> Result<Self, ParamError> {
+        Resolution::parse(s).ok_or_else(|| {
+            ParamError::run(format!("`{s}` is not \"WxH\" with sides in 1..={MAX_SIDE}"))
+        })
     }
 }
 

@@ -22,6 +22,7 @@ use crate::experiment::params::{
 };
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
+use crate::{Error, FileOp};
 use raylab::accel::AccelKind;
 use raylab::diff::{self, Param};
 use raylab::integrator::IntegratorKind;
@@ -142,7 +143,7 @@ enum What {
 }
 
 /// A run's parameters, checked.
-pub struct Config {
+pub struct GradientConfig {
     scene: PathBuf,
     integrator: IntegratorKind,
     overrides: Overrides,
@@ -269,10 +270,10 @@ fn pool(file: &SceneFile, k: usize) -> Result<Vec<Param>, String> {
 
 impl Study for Gradient {
     type Params = GradientParams;
-    type Config = Config;
+    type Config = GradientConfig;
     type Row = GradientRow;
 
-    fn configure(&self, p: GradientParams, base_dir: &Path) -> Result<Config, ParamError> {
+    fn configure(&self, p: GradientParams, base_dir: &Path) -> Result<GradientConfig, ParamError> {
         let scene = scene_file(base_dir, &p.scene)?;
         let integrator = differentiable_integrator(p.integrator, p.roulette)?;
         let what = match (p.param, p.cost_params) {
@@ -290,7 +291,7 @@ impl Study for Gradient {
             return Err(ParamError::new("check", "`check` needs `param`"));
         }
         let step = positive_step("step", p.step)?;
-        Ok(Config {
+        Ok(GradientConfig {
             scene,
             integrator,
             overrides: run_overrides(p.resolution, p.sampler, p.accel, p.seed),
@@ -303,22 +304,23 @@ impl Study for Gradient {
 
     fn run(
         &self,
-        cfg: Config,
+        cfg: GradientConfig,
         run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<GradientRow> {
-        let err = |e: String| anyhow::anyhow!("{}: {e}", cfg.scene.display());
+    ) -> Result<GradientRow, Error> {
+        let err = |e: String| Error::scene(&cfg.scene, Error::Gradient(e));
         let (text, scene, file) =
-            diff::load(&cfg.scene, &cfg.overrides).map_err(anyhow::Error::msg)?;
+            diff::load(&cfg.scene, &cfg.overrides).map_err(Error::Gradient)?;
         let params = match &cfg.what {
             What::One(name) => {
                 let p = diff::resolve(name, &file).map_err(err)?;
-                anyhow::ensure!(
-                    p.len() == 1,
-                    "`param = \"{name}\"` names {} components: name one (e.g. `{}`)",
-                    p.len(),
-                    p[0].name
-                );
+                if p.len() != 1 {
+                    return Err(Error::Study(format!(
+                        "`param = \"{name}\"` names {} components: name one (e.g. `{}`)",
+                        p.len(),
+                        p[0].name
+                    )));
+                }
                 p
             }
             What::Count(k) => pool(&file, *k).map_err(err)?,
@@ -385,7 +387,7 @@ impl Study for Gradient {
         }
         if cfg.images {
             let dir = ctx.out_dir.join("images");
-            std::fs::create_dir_all(&dir)?;
+            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, FileOp::CreateFolder, e))?;
             let stem = format!(
                 "{}-{}-{}-{}spp",
                 run.sweep,

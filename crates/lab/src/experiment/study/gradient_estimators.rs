@@ -30,6 +30,7 @@ use crate::experiment::params::{
 };
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
+use crate::{Error, FileOp};
 use ndarray::Array2;
 use raylab::accel::AccelKind;
 use raylab::diff::{self, Visibility};
@@ -150,7 +151,7 @@ enum Estimator {
 }
 
 /// A run's parameters, checked.
-pub struct Config {
+pub struct EstimatorConfig {
     scene: PathBuf,
     integrator: IntegratorKind,
     overrides: Overrides,
@@ -227,10 +228,14 @@ fn references() -> &'static Mutex<HashMap<String, (f64, f64)>> {
 
 impl Study for GradientEstimators {
     type Params = EstimatorParams;
-    type Config = Config;
+    type Config = EstimatorConfig;
     type Row = EstimatorRow;
 
-    fn configure(&self, p: EstimatorParams, base_dir: &Path) -> Result<Config, ParamError> {
+    fn configure(
+        &self,
+        p: EstimatorParams,
+        base_dir: &Path,
+    ) -> Result<EstimatorConfig, ParamError> {
         let scene = scene_file(base_dir, &p.scene)?;
         let integrator = differentiable_integrator(p.integrator, p.roulette)?;
         let estimator = match p.estimator.as_str() {
@@ -251,7 +256,7 @@ impl Study for GradientEstimators {
             ));
         }
         let step = positive_step("step", p.step)?;
-        Ok(Config {
+        Ok(EstimatorConfig {
             scene,
             integrator,
             overrides: run_overrides(p.resolution, p.sampler, p.accel, None),
@@ -268,20 +273,21 @@ impl Study for GradientEstimators {
 
     fn run(
         &self,
-        cfg: Config,
+        cfg: EstimatorConfig,
         run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<EstimatorRow> {
-        let err = |e: String| anyhow::anyhow!("{}: {e}", cfg.scene.display());
+    ) -> Result<EstimatorRow, Error> {
+        let err = |e: String| Error::scene(&cfg.scene, Error::Gradient(e));
         let (text, scene, file) = diff::load(&cfg.scene, &cfg.overrides).map_err(err)?;
         let params = diff::resolve(&cfg.param, &file).map_err(err)?;
-        anyhow::ensure!(
-            params.len() == 1,
-            "`param = \"{}\"` names {} components: name one (e.g. `{}`)",
-            cfg.param,
-            params.len(),
-            params[0].name
-        );
+        if params.len() != 1 {
+            return Err(Error::Study(format!(
+                "`param = \"{}\"` names {} components: name one (e.g. `{}`)",
+                cfg.param,
+                params.len(),
+                params[0].name
+            )));
+        }
         let p = &params[0];
         diff::check_supported(&scene, &cfg.integrator).map_err(err)?;
         let (w, h) = (scene.camera.width, scene.camera.height);
@@ -430,7 +436,7 @@ impl Study for GradientEstimators {
         };
         if cfg.images {
             let dir = ctx.out_dir.join("images");
-            std::fs::create_dir_all(&dir)?;
+            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, FileOp::CreateFolder, e))?;
             let stem = format!("{}-{}-{}-{}spp-sd", run.sweep, p.name, name, spp);
             let data = Array2::from_shape_fn((h as usize, w as usize), |(y, x)| {
                 let i = y * w as usize + x;

@@ -19,6 +19,7 @@ use crate::experiment::params::render::{RenderConfig, RenderParams};
 use crate::experiment::params::ParamError;
 use crate::experiment::row::{CounterCells, Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
+use crate::Error;
 use raylab::integrator::{render, Whitted};
 use raylab::io::scene_file::load_scene;
 use raylab::stats::{Counters, NoStats};
@@ -91,7 +92,7 @@ impl Study for RenderCost {
         cfg: RenderConfig,
         _run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<RenderCostRow> {
+    ) -> Result<RenderCostRow, Error> {
         let start = Instant::now();
         let scene = load_scene(&cfg.scene, &cfg.overrides)?;
         let load_s = start.elapsed().as_secs_f64();
