@@ -156,20 +156,16 @@ pub enum Error {
     Accel(String),
     /// Derivatives could not be set up or rendered (the scene for
     /// derivatives, its parameters, the integrator, a finite-difference
-    /// step); the core's message.
-    #[error("{0}")]
-    Gradient(String),
-    /// An optimisation could not be set up or written (the core's
-    /// message).
-    #[error("{0}")]
-    Optimize(String),
+    /// step, an optimisation).
+    #[error(transparent)]
+    Diff(#[from] raylab::diff::DiffError),
     /// One iteration of an optimisation failed.
-    #[error("iteration {iteration}: {message}")]
+    #[error("iteration {iteration}: {error}")]
     Iteration {
         /// Its number, from 0.
         iteration: u32,
-        /// The core's message.
-        message: String,
+        /// Why it failed.
+        error: raylab::diff::DiffError,
     },
     /// The flood-fill cache (voxel grid and irradiance) could not be
     /// built; the core's message.

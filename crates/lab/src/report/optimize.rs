@@ -96,7 +96,7 @@ impl OptimizeReport {
             None => spec.iterations,
         };
         spec.snapshots.retain(|&i| i < run);
-        let problem = Problem::new(spec, opts.threads).map_err(Error::Optimize)?;
+        let problem = Problem::new(spec, opts.threads)?;
         std::fs::create_dir_all(&opts.out_dir)
             .map_err(|e| Error::io(&opts.out_dir, FileOp::CreateFolder, e))?;
         let dir = &opts.out_dir;
@@ -124,9 +124,9 @@ impl OptimizeReport {
         for i in 0..run {
             let it = problem
                 .iterate(i, &mut theta, &mut optimizer, opts.threads)
-                .map_err(|message| Error::Iteration {
+                .map_err(|error| Error::Iteration {
                     iteration: i,
-                    message,
+                    error,
                 })?;
             // One write per row: a killed run leaves whole rows.
             csv.write_all(csv_row(&it, truth.as_deref()).as_bytes())
@@ -174,7 +174,7 @@ impl OptimizeReport {
             .iter()
             .enumerate()
             .map(|(k, p)| ParamOutcome {
-                name: p.param.name.clone(),
+                name: p.name.clone(),
                 start: f64::from(p.start),
                 end: theta[k],
                 truth: truth.as_ref().map(|t| f64::from(t[k])),
@@ -215,7 +215,7 @@ fn write_final(
     done: u32,
     averaged: u32,
 ) -> Result<(), Error> {
-    let text = problem.text_for(theta, dir).map_err(Error::Optimize)?;
+    let text = problem.text_for(theta, dir)?;
     let what = if averaged > 1 {
         format!(", the mean of the last {averaged} iterates")
     } else {
@@ -243,8 +243,8 @@ fn csv_header(spec: &Spec, truth: bool) -> String {
     if truth {
         cols.push("max_rel_error".into());
     }
-    cols.extend(spec.params.iter().map(|p| p.param.name.clone()));
-    cols.extend(spec.params.iter().map(|p| format!("grad:{}", p.param.name)));
+    cols.extend(spec.params.iter().map(|p| p.name.clone()));
+    cols.extend(spec.params.iter().map(|p| format!("grad:{}", p.name)));
     cols.join(",") + "\n"
 }
 
@@ -351,7 +351,7 @@ fn draw_figures(
         };
         params
             .series
-            .push(Series::new(p.param.name.clone(), points, style));
+            .push(Series::new(p.name.clone(), points, style));
     }
     params.save(&dir.join("params"))?;
 
@@ -360,11 +360,11 @@ fn draw_figures(
         .push((problem.target.clone(), "target".to_string()));
     for &i in &spec.snapshots {
         if let Some(h) = history.get(i as usize) {
-            let img = problem.snapshot(&h.theta, threads).map_err(Error::Render)?;
+            let img = problem.snapshot(&h.theta, threads)?;
             grid.cells.push((img, format!("iteration {i}")));
         }
     }
-    let img = problem.snapshot(end, threads).map_err(Error::Render)?;
+    let img = problem.snapshot(end, threads)?;
     grid.cells
         .push((img, format!("after {} iterations", history.len())));
     grid.save(&dir.join("images"))?;
