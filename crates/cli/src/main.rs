@@ -3,6 +3,7 @@
 //! [`raylab_lab::report`]: this file only turns arguments into that module's
 //! options, runs the report, and prints it.
 
+use anyhow::Result;
 use clap::{Parser, Subcommand};
 use raylab::accel::AccelKind;
 use raylab::film::Filter;
@@ -11,7 +12,6 @@ use raylab::io::scene_file::Overrides;
 use raylab::sampler::Sampler;
 use raylab_lab::experiment;
 use raylab_lab::report::{self, print_stdout};
-use raylab_lab::Result;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -561,7 +561,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }
     }
@@ -596,7 +596,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     if args.quiet {
         return Ok(());
     }
-    print_stdout(&report.to_string())
+    Ok(print_stdout(&report.to_string())?)
 }
 
 fn cmd_grad(args: GradArgs) -> Result<()> {
@@ -611,7 +611,9 @@ fn cmd_grad(args: GradArgs) -> Result<()> {
         threads: args.common.threads,
         progress: true,
     };
-    print_stdout(&report::grad::GradReport::run(&opts)?.to_string())
+    Ok(print_stdout(
+        &report::grad::GradReport::run(&opts)?.to_string(),
+    )?)
 }
 
 /// Exit status 130 when Ctrl-C stopped the run (after its figures were
@@ -628,7 +630,7 @@ fn cmd_optimize(args: OptimizeArgs) -> ExitCode {
         Ok(report) => {
             if !args.quiet {
                 if let Err(e) = print_stdout(&report.to_string()) {
-                    eprintln!("error: {e}");
+                    eprintln!("error: {e:#}");
                     return ExitCode::FAILURE;
                 }
             }
@@ -639,7 +641,7 @@ fn cmd_optimize(args: OptimizeArgs) -> ExitCode {
             }
         }
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }
     }
@@ -648,9 +650,9 @@ fn cmd_optimize(args: OptimizeArgs) -> ExitCode {
 fn cmd_diff(args: DiffArgs) -> Result<()> {
     let report = report::DiffReport::run(&args.test, &args.reference, args.out.as_deref())?;
     if args.json {
-        print_stdout(&report.json()?)
+        Ok(print_stdout(&report.json()?)?)
     } else {
-        print_stdout(&report.to_string())
+        Ok(print_stdout(&report.to_string())?)
     }
 }
 
@@ -662,7 +664,9 @@ fn cmd_spectrum(args: SpectrumArgs) -> Result<()> {
         seed: args.seed,
         out: args.out,
     };
-    print_stdout(&report::SpectrumReport::run(&opts)?.to_string())
+    Ok(print_stdout(
+        &report::SpectrumReport::run(&opts)?.to_string(),
+    )?)
 }
 
 fn cmd_experiment(args: ExperimentArgs) -> Result<()> {
@@ -676,7 +680,9 @@ fn cmd_experiment(args: ExperimentArgs) -> Result<()> {
         progress: true,
         shard: args.shard,
     };
-    print_stdout(&report::ExperimentReport::run(&args.manifest, &opts)?.to_string())
+    Ok(print_stdout(
+        &report::ExperimentReport::run(&args.manifest, &opts)?.to_string(),
+    )?)
 }
 
 fn cmd_merge(args: MergeArgs) -> Result<()> {
@@ -685,7 +691,7 @@ fn cmd_merge(args: MergeArgs) -> Result<()> {
         shards: args.shards,
         allow_missing: args.allow_missing,
     };
-    print_stdout(&report::MergeReport::run(&opts)?.to_string())
+    Ok(print_stdout(&report::MergeReport::run(&opts)?.to_string())?)
 }
 
 fn cmd_plot(
@@ -693,7 +699,9 @@ fn cmd_plot(
     out: Option<&std::path::Path>,
     manifest: Option<&std::path::Path>,
 ) -> Result<()> {
-    print_stdout(&report::PlotReport::run(dir, out, manifest)?.to_string())
+    Ok(print_stdout(
+        &report::PlotReport::run(dir, out, manifest)?.to_string(),
+    )?)
 }
 
 fn cmd_stats(opts: &report::StatsOptions) -> Result<()> {
@@ -727,5 +735,5 @@ fn cmd_validate(args: ValidateArgs) -> Result<()> {
     };
     let report = report::ValidateReport::run(&opts)?;
     print_stdout(&report.to_string())?;
-    report.check()
+    Ok(report.check()?)
 }

@@ -26,6 +26,7 @@ const CRATES: &[(&str, &str, &[&[&str]])] = &[
         "core",
         "raylab",
         &[
+            &["error"],
             &["math"],
             &["stats", "shading"],
             &["shape", "camera", "material", "sampler", "film"],

@@ -16,10 +16,13 @@
 //! passes through every layer (`raylab experiment` loads a manifest, runs
 //! studies that render, compare and plot, and writes tables and figures)
 //! and its caller wants one thing to report; its variants say which part
-//! failed and keep that part's own typed error where it has one: the
-//! core's [`InputError`] and [`OutputError`], [`analysis::plot::PlotError`]
+//! failed and keep that part's own typed error: the core's
+//! [`InputError`], [`OutputError`], [`raylab::diff::DiffError`],
+//! [`raylab::integrator::RenderError`], [`raylab::gi::GiError`],
+//! [`raylab::accel::AccelError`] and [`CameraError`];
+//! [`analysis::plot::PlotError`]
 //! (plotting stays usable alone, so it has its own narrow error),
-//! [`analysis::MetricsError`], [`experiment::params::ParamError`],
+//! [`analysis::MetricsError`], [`experiment::params::RunParamError`],
 //! [`experiment::row::RowError`] and, with the `gpu` feature,
 //! [`raylab_gpu::GpuError`]. It lives here at the crate's root, beside the
 //! module list, because it names the typed errors of several layers and
@@ -28,11 +31,11 @@
 //!
 //! Each message is whole: an error's `Display` includes what caused it
 //! (`path: cannot read: No such file or directory`), in the words the
-//! commands have always printed, and `source()` is none. So `{}` and
-//! `{:#}` print the same, and the command line prints exactly one line of
-//! cause per context. Where the core still reports a `String`
-//! ([`Error::Render`], [`Error::Accel`], [`Error::Gradient`],
-//! [`Error::Optimize`], [`Error::Cache`]) the message is kept as it is.
+//! commands have always printed, and `source()` is none: a variant that
+//! only wraps another error is `#[error(transparent)]`, and one that adds
+//! context holds the inner error in a field named `error` (not a
+//! `source`). So `{}` and `{:#}` print the same, and the command line's
+//! `error: {e:#}` prints each cause once.
 
 pub mod analysis;
 pub mod experiment;
@@ -40,7 +43,10 @@ pub mod report;
 #[cfg(feature = "embree")]
 pub mod validate;
 
+use raylab::accel::{AccelError, AccelKind};
 use raylab::camera::CameraError;
+use raylab::gi::GiError;
+use raylab::integrator::RenderError;
 use raylab::io::{InputError, OutputError, Place};
 use std::fmt;
 use std::path::PathBuf;
@@ -148,12 +154,16 @@ pub enum Error {
     },
     /// The renderer could not render (or prepare to render) a scene; the
     /// core's message.
-    #[error("{0}")]
-    Render(String),
-    /// An accelerator could not be built for a scene; the core's message,
-    /// after the accelerator's name where the caller gives it.
-    #[error("{0}")]
-    Accel(String),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    /// An accelerator could not be built for a scene: which, and why.
+    #[error("building `{kind}`: {error}")]
+    Accel {
+        /// The accelerator.
+        kind: AccelKind,
+        /// Why it could not be built (Embree's or obvhs's reason).
+        error: AccelError,
+    },
     /// Derivatives could not be set up or rendered (the scene for
     /// derivatives, its parameters, the integrator, a finite-difference
     /// step, an optimisation).
@@ -168,9 +178,9 @@ pub enum Error {
         error: raylab::diff::DiffError,
     },
     /// The flood-fill cache (voxel grid and irradiance) could not be
-    /// built; the core's message.
-    #[error("{0}")]
-    Cache(String),
+    /// built.
+    #[error(transparent)]
+    Cache(#[from] GiError),
     /// Two images that cannot be compared (sizes or channels differ).
     #[error(transparent)]
     Metrics(#[from] analysis::MetricsError),
@@ -219,7 +229,7 @@ pub enum Error {
     /// A run's parameters are wrong (when a run finds what the check of
     /// every run before the first could not).
     #[error(transparent)]
-    Param(#[from] experiment::params::ParamError),
+    Param(#[from] experiment::params::RunParamError),
     /// A study's row that is not a row of columns (a bug in the study).
     #[error(transparent)]
     Row(#[from] experiment::row::RowError),
@@ -369,6 +379,12 @@ impl Error {
             op,
             error,
         }
+    }
+
+    /// [`Error::Accel`] for `kind`, as a function of its error (for
+    /// `map_err`).
+    pub fn accel(kind: AccelKind) -> impl FnOnce(AccelError) -> Self {
+        move |error| Error::Accel { kind, error }
     }
 
     /// [`Error::Scene`]: `error` concerns the scene file `path`.

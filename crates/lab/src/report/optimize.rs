@@ -17,7 +17,7 @@
 //! The first Ctrl-C stops the run after the current iteration and still
 //! draws the figures; a second one ends the process at once.
 
-use crate::analysis::plot::{ImageGrid, LineChart, Scale, Series, SeriesStyle};
+use crate::analysis::plot::{AxisScale, ImageGrid, LineChart, Series, SeriesStyle};
 use crate::{Error, FileOp};
 use raylab::diff::optimize::{
     average_last, load_spec, relative_error, Iteration, Optimizer, Problem, Spec,
@@ -307,7 +307,7 @@ fn draw_figures(
         "iteration",
         format!("{} loss against the target", spec.loss.name()),
     );
-    loss.y_scale = Scale::Log10;
+    loss.y_scale = AxisScale::Log10;
     loss.series.push(Series::new(
         format!(
             "loss of a {}-spp render (gradient: {} spp)",
@@ -329,7 +329,7 @@ fn draw_figures(
                 "iteration",
                 "relative error |θ − θ*| / |θ*|",
             );
-            c.y_scale = Scale::Log10;
+            c.y_scale = AxisScale::Log10;
             c
         }
         None => LineChart::new(format!("{name}: parameters"), "iteration", "value"),

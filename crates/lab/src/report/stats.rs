@@ -217,9 +217,7 @@ pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>, E
     let mut reports = Vec::with_capacity(accels.len());
     for kind in accels {
         let t = Instant::now();
-        scene
-            .set_accel(kind)
-            .map_err(|e| Error::Accel(format!("building {kind}: {e}")))?;
+        scene.set_accel(kind).map_err(Error::accel(kind))?;
         let build_seconds = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let PixelCosts { totals, pixels } = match opts.device {

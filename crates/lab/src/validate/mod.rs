@@ -373,7 +373,7 @@ pub fn validate(input: &Input, opts: &ValidationOptions) -> Result<ValidationRep
         &input.prims,
         ids.clone(),
     )
-    .map_err(Error::Accel)?;
+    .map_err(Error::accel(AccelKind::Bvh(BvhConfig::default())))?;
     let first_hit = |r: &Ray| {
         bvh.intersect(
             &input.prims,
@@ -387,8 +387,8 @@ pub fn validate(input: &Input, opts: &ValidationOptions) -> Result<ValidationRep
     let mut reports = Vec::new();
     let mut worst = Vec::new();
     for kind in kinds {
-        let accel = Accelerator::build(kind, &input.prims, ids.clone())
-            .map_err(|e| Error::Accel(format!("{kind}: {e}")))?;
+        let accel =
+            Accelerator::build(kind, &input.prims, ids.clone()).map_err(Error::accel(kind))?;
         for set in &sets {
             let c = compare_set(input, set, &accel, &embree, opts);
             reports.push(c.report);

@@ -6,7 +6,7 @@
 
 use super::compare::{Answers, DisagreementKind, HitPlace, Leak, Outcome, Verdict};
 use super::Tolerances;
-use crate::analysis::plot::{BarChart, BarSeries, Histogram, Scale};
+use crate::analysis::plot::{AxisScale, BarChart, BarSeries, Histogram};
 use crate::{Error, FileOp};
 use raylab::io::{write_atomically, Place};
 use raylab::math::Ray;
@@ -463,7 +463,7 @@ impl ValidationReport {
                 40,
             );
             h.y_label = "same-primitive hits".into();
-            h.y_scale = Scale::Log10;
+            h.y_scale = AxisScale::Log10;
             let stem = format!("{stem_prefix}{name}");
             h.save(&dir.join(&stem))?;
             stems.push(stem);
@@ -492,7 +492,7 @@ impl ValidationReport {
         // A log axis shows counts from 1 to 10⁴ alike; with no
         // disagreement at all there is nothing to draw.
         if bars.series.iter().flat_map(|s| &s.values).any(|&v| v > 0.0) {
-            bars.y_scale = Scale::Log10;
+            bars.y_scale = AxisScale::Log10;
             let stem = format!("{stem_prefix}disagreements");
             bars.save(&dir.join(&stem))?;
             stems.push(stem);

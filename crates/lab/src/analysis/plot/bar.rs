@@ -2,7 +2,7 @@
 //! by side, on a linear or log y axis. Part of [`crate::analysis::plot`];
 //! the frame and legend come from [`super::chart`].
 
-use super::axis::{to_plot, Axis, Scale};
+use super::axis::{to_plot, Axis, AxisScale};
 use super::chart::{build_chart, draw_legend, place_legend, plot_width, LegendPosition, XTicks};
 use super::{
     check_figure, fit_text, plot_err, rgb, save_figure, series_colour, Figure, PlotError,
@@ -46,7 +46,7 @@ pub struct BarChart {
     /// The series, coloured in order.
     pub series: Vec<BarSeries>,
     /// y axis scale; on a log axis bars rise from the bottom of the axis.
-    pub y_scale: Scale,
+    pub y_scale: AxisScale,
     /// Legend placement.
     pub legend: LegendPosition,
     /// Canvas size in pixels, [`CHART_SIZE`] by default.
@@ -67,7 +67,7 @@ impl BarChart {
             y_label: y_label.into(),
             categories,
             series: Vec::new(),
-            y_scale: Scale::Linear,
+            y_scale: AxisScale::Linear,
             legend: LegendPosition::Auto,
             size: CHART_SIZE,
         }
@@ -128,11 +128,11 @@ impl Figure for BarChart {
         let x = Axis {
             major: (0..n_cat).map(|i| i as f64 + 0.5).collect(),
             minor: vec![],
-            ..Axis::new(Scale::Linear, 0.0, n_cat.max(1) as f64)
+            ..Axis::new(AxisScale::Linear, 0.0, n_cat.max(1) as f64)
         };
         let base = match self.y_scale {
-            Scale::Linear => 0.0f64.clamp(y.lo, y.hi),
-            Scale::Log10 => y.lo,
+            AxisScale::Linear => 0.0f64.clamp(y.lo, y.hi),
+            AxisScale::Log10 => y.lo,
         };
         // Where the bars are, sampled on a grid inside each, for the legend.
         let mut occupied = Vec::new();

@@ -2,7 +2,7 @@
 //! drawn as colours of a [`Palette`](super::Palette), with labelled axes and
 //! a colour bar, linear or log. Part of [`crate::analysis::plot`].
 
-use super::axis::{to_plot, Axis, Scale};
+use super::axis::{to_plot, Axis, AxisScale};
 use super::{
     draw_bitmap, fit_text, font, plot_err, save_figure, Figure, Palette, PlotError, AXIS_DESC_PX,
     TICK_PX, TITLE_PX,
@@ -90,11 +90,11 @@ impl Heatmap {
         save_figure(self, stem).map_err(|e| PlotError::figure("heatmap", &self.title, e))
     }
 
-    fn scale(&self) -> Scale {
+    fn scale(&self) -> AxisScale {
         if self.log_scale {
-            Scale::Log10
+            AxisScale::Log10
         } else {
-            Scale::Linear
+            AxisScale::Linear
         }
     }
 
@@ -194,8 +194,8 @@ impl Figure for Heatmap {
         // to 0 (top).
         let [left, right, bottom, top] =
             self.extent.unwrap_or([0.0, cols as f64, rows as f64, 0.0]);
-        let x = Axis::fit(Scale::Linear, &[left, right], 0.0, false);
-        let mut y = Axis::fit(Scale::Linear, &[bottom, top], 0.0, false);
+        let x = Axis::fit(AxisScale::Linear, &[left, right], 0.0, false);
+        let mut y = Axis::fit(AxisScale::Linear, &[bottom, top], 0.0, false);
         if bottom > top {
             std::mem::swap(&mut y.lo, &mut y.hi);
         }
@@ -250,7 +250,7 @@ impl Figure for Heatmap {
 
         // The colour bar: a narrow chart whose y axis is the value scale.
         let bar_area = bar_area.margin(HM_TOP, HM_BOTTOM, 60, 0);
-        let bar_x = Axis::new(Scale::Linear, 0.0, 1.0);
+        let bar_x = Axis::new(AxisScale::Linear, 0.0, 1.0);
         let mut bar = ChartBuilder::on(&bar_area)
             .right_y_label_area_size(HM_BAR_LABELS)
             .build_cartesian_2d(bar_x.coord(), bar_axis.coord())

@@ -3,7 +3,7 @@
 //! its own. Part of [`crate::analysis::plot`]; the frame comes from
 //! [`super::chart`].
 
-use super::axis::{to_plot, Axis, Scale};
+use super::axis::{to_plot, Axis, AxisScale};
 use super::chart::{build_chart, XTicks};
 use super::{plot_err, rgb, save_figure, Figure, PlotError, CHART_SIZE, OKABE_ITO, TICK_PX};
 use plotters::coord::Shift;
@@ -45,7 +45,7 @@ pub struct Histogram {
     /// Binning range; `None` means from the sample's minimum to maximum.
     pub range: Option<(f64, f64)>,
     /// y axis scale; `Log10` suits long-tailed data, empty bins are skipped.
-    pub y_scale: Scale,
+    pub y_scale: AxisScale,
     /// Canvas size in pixels, [`CHART_SIZE`] by default.
     pub size: (u32, u32),
 }
@@ -65,7 +65,7 @@ impl Histogram {
             values,
             bins,
             range: None,
-            y_scale: Scale::Linear,
+            y_scale: AxisScale::Linear,
             size: CHART_SIZE,
         }
     }
@@ -116,7 +116,7 @@ impl Figure for Histogram {
             .iter()
             .filter_map(|&c| to_plot(self.y_scale, c as f64))
             .collect();
-        let x = Axis::fit(Scale::Linear, &[lo, hi], 0.0, false);
+        let x = Axis::fit(AxisScale::Linear, &[lo, hi], 0.0, false);
         let y = Axis::fit(self.y_scale, &ys, 0.08, true);
         let x_fmt = |u: &f64| x.label(*u);
         let mut chart = build_chart(
@@ -132,8 +132,8 @@ impl Figure for Histogram {
             },
         )?;
         let base = match self.y_scale {
-            Scale::Linear => 0.0,
-            Scale::Log10 => y.lo,
+            AxisScale::Linear => 0.0,
+            AxisScale::Log10 => y.lo,
         };
         let step = (hi - lo) / self.bins as f64;
         let colour = rgb(OKABE_ITO[0]);

@@ -2,7 +2,7 @@
 //! axes, drawn as lines, markers, both, or dashed reference curves. Part of
 //! [`crate::analysis::plot`]; the frame and legend come from [`super::chart`].
 
-use super::axis::{to_plot, Axis, Scale};
+use super::axis::{to_plot, Axis, AxisScale};
 use super::chart::{
     build_chart, draw_legend, marker_polygon, place_legend, sample_polyline, LegendGlyph,
     LegendPosition, SeriesStyle, XTicks, MARKERS,
@@ -59,9 +59,9 @@ pub struct LineChart {
     /// y axis description (include the unit).
     pub y_label: String,
     /// x axis scale.
-    pub x_scale: Scale,
+    pub x_scale: AxisScale,
     /// y axis scale.
-    pub y_scale: Scale,
+    pub y_scale: AxisScale,
     /// The curves, coloured and marked in order.
     pub series: Vec<Series>,
     /// Legend placement.
@@ -84,8 +84,8 @@ impl LineChart {
             title: title.into(),
             x_label: x_label.into(),
             y_label: y_label.into(),
-            x_scale: Scale::Linear,
-            y_scale: Scale::Linear,
+            x_scale: AxisScale::Linear,
+            y_scale: AxisScale::Linear,
             series: Vec::new(),
             legend: LegendPosition::Auto,
             size: CHART_SIZE,
@@ -156,7 +156,7 @@ impl LineChart {
         if any_finite && xs.is_empty() {
             let which: Vec<&str> = [("x", self.x_scale), ("y", self.y_scale)]
                 .iter()
-                .filter(|(_, s)| *s == Scale::Log10)
+                .filter(|(_, s)| *s == AxisScale::Log10)
                 .map(|(n, _)| *n)
                 .collect();
             return Err(PlotError::Invalid(format!(

@@ -50,7 +50,7 @@ mod histogram;
 mod image_grid;
 mod line;
 
-pub use axis::{format_tick, Scale};
+pub use axis::{format_tick, AxisScale};
 pub use bar::{BarChart, BarSeries};
 pub use chart::{LegendPosition, SeriesStyle};
 pub use error::PlotError;

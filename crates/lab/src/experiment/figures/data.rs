@@ -5,7 +5,7 @@ use super::number;
 use super::placeholders::fill;
 use super::ratio_label;
 use super::spread::spread;
-use crate::analysis::plot::{BarChart, BarSeries, LineChart, Scale};
+use crate::analysis::plot::{AxisScale, BarChart, BarSeries, LineChart};
 use crate::experiment::data::Table;
 use crate::experiment::manifest::FigureKind;
 use crate::experiment::manifest::FigureSpec;
@@ -111,7 +111,11 @@ impl<'a> Data<'a> {
         fill(&self.spec.title, self.table, &self.rows).unwrap_or_else(|_| self.spec.title.clone())
     }
 
-    pub(super) fn line_chart(&self, spec: &FigureSpec, scale: impl Fn(bool) -> Scale) -> LineChart {
+    pub(super) fn line_chart(
+        &self,
+        spec: &FigureSpec,
+        scale: impl Fn(bool) -> AxisScale,
+    ) -> LineChart {
         let y_label = match spec.kind {
             FigureKind::Ratio => ratio_label(spec),
             _ => spec.y_label.clone().unwrap_or_else(|| spec.y.join(", ")),
@@ -269,7 +273,7 @@ impl<'a> Data<'a> {
         Ok((points.iter().map(|&(x, v)| (x, v[0])).collect(), errors))
     }
 
-    pub(super) fn bar_chart(&self, spec: &FigureSpec, y_scale: Scale) -> BarChart {
+    pub(super) fn bar_chart(&self, spec: &FigureSpec, y_scale: AxisScale) -> BarChart {
         // Categories: distinct x cells, in numeric order when all are numbers.
         let mut cats: Vec<String> = Vec::new();
         for r in &self.rows {

@@ -38,7 +38,7 @@ pub use placeholders::fill;
 use super::data::Table;
 use super::manifest::{FigureKind, FigureSpec, ReferenceStyle};
 use super::meta::{RatioSummary, SeriesMean};
-use crate::analysis::plot::{BarChart, BarSeries, LineChart, Scale, Series, SeriesStyle};
+use crate::analysis::plot::{AxisScale, BarChart, BarSeries, LineChart, Series, SeriesStyle};
 use crate::Error;
 use data::{mean, Data};
 use spread::{LINE_ERROR_LABEL, RATIO_ERROR_LABEL};
@@ -84,7 +84,13 @@ pub fn draw(
 ) -> Result<Option<RatioSummary>, Error> {
     let fig = Data::new(spec, table)?;
     let stem = dir.join(&spec.file);
-    let scale = |log: bool| if log { Scale::Log10 } else { Scale::Linear };
+    let scale = |log: bool| {
+        if log {
+            AxisScale::Log10
+        } else {
+            AxisScale::Linear
+        }
+    };
     match spec.kind {
         FigureKind::Line => {
             let mut chart = fig.line_chart(spec, scale);
@@ -170,7 +176,13 @@ pub fn draw(
 /// smallest text size. Lets a test check every manifest's figures without
 /// running the experiments.
 pub fn check_text(spec: &FigureSpec) -> Result<(), Error> {
-    let scale = |log: bool| if log { Scale::Log10 } else { Scale::Linear };
+    let scale = |log: bool| {
+        if log {
+            AxisScale::Log10
+        } else {
+            AxisScale::Linear
+        }
+    };
     let x_label = spec.x_label.clone().unwrap_or_else(|| spec.x.clone());
     let y_label = match spec.kind {
         FigureKind::Ratio => ratio_label(spec),

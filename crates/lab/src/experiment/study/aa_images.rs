@@ -27,11 +27,11 @@
 
 use super::{RunContext, Study, Timings};
 use crate::analysis::metrics::{compare, flip_error_map, write_flip_map};
-use crate::analysis::plot::{Heatmap, LineChart, Palette, Scale, Series, SeriesStyle};
+use crate::analysis::plot::{AxisScale, Heatmap, LineChart, Palette, Series, SeriesStyle};
 use crate::analysis::spectrum::{power_spectrum, radial_profile};
 use crate::experiment::data::Table;
 use crate::experiment::params::render::{RenderConfig, RenderParams};
-use crate::experiment::params::{or_default, parsed_opt, typed_params, ParamDoc, ParamError};
+use crate::experiment::params::{or_default, parsed_opt, typed_params, ParamDoc, RunParamError};
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
 use crate::{Error, FileOp};
@@ -145,11 +145,11 @@ impl Study for AaImages {
         &self,
         (render, own): (RenderParams, AaParams),
         base_dir: &Path,
-    ) -> Result<AaConfig, ParamError> {
+    ) -> Result<AaConfig, RunParamError> {
         let render = render.config(base_dir)?;
         let reference = or_default(own.reference, "reference", DEFAULT_REFERENCE)?;
         if reference.is_adaptive() {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "reference",
                 "the reference needs a fixed sample count, not the adaptive sampler",
             ));
@@ -200,7 +200,7 @@ impl Study for AaImages {
                 "frequency (cycles per pixel; Nyquist 0.5)".to_string(),
                 "radial mean of |DFT(luminance error)|² / pixels".to_string(),
             );
-            chart.y_scale = Scale::Log10;
+            chart.y_scale = AxisScale::Log10;
             for row in rows {
                 let label = match row[filter].as_str() {
                     "box" => row[sampler].clone(),

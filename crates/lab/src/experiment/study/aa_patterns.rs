@@ -25,7 +25,7 @@ use crate::analysis::spectrum::{
     PatternSpectrum, RadialCurve, MAX_FREQ, MAX_SETS,
 };
 use crate::experiment::data::Table;
-use crate::experiment::params::{parsed, typed_params, InRange, ParamDoc, ParamError};
+use crate::experiment::params::{parsed, typed_params, InRange, ParamDoc, RunParamError};
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
 use crate::Error;
@@ -147,10 +147,10 @@ impl Study for AaPatterns {
         &self,
         p: AaPatternsParams,
         _base_dir: &Path,
-    ) -> Result<AaPatternsConfig, ParamError> {
+    ) -> Result<AaPatternsConfig, RunParamError> {
         let sets = p.sets.map_or(DEFAULT_SETS, |v| v.get() as usize);
         let freq = p.freq.map_or(DEFAULT_FREQ, |v| v.get() as usize);
-        check_sets_and_freq(sets, freq).map_err(|e| ParamError::new("sets", e.to_string()))?;
+        check_sets_and_freq(sets, freq).map_err(|e| RunParamError::new("sets", e.to_string()))?;
         Ok(AaPatternsConfig {
             sampler: p.sampler,
             sets,
@@ -258,7 +258,7 @@ mod tests {
         }
     }
 
-    fn config(run: &RunPoint) -> Result<AaPatternsConfig, ParamError> {
+    fn config(run: &RunPoint) -> Result<AaPatternsConfig, RunParamError> {
         AaPatterns.configure(AaPatternsParams::from_run(run)?, Path::new("."))
     }
 

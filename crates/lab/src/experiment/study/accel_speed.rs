@@ -38,7 +38,7 @@
 use super::{RunContext, Study, Timings};
 use crate::experiment::params::render::scene_file;
 use crate::experiment::params::{
-    or_default, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    or_default, parsed_opt, typed_params, InRange, ParamDoc, Resolution, RunParamError,
 };
 use crate::experiment::row::{Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
@@ -288,7 +288,7 @@ impl Study for AccelSpeed {
         &self,
         p: AccelSpeedParams,
         base_dir: &Path,
-    ) -> Result<AccelSpeedConfig, ParamError> {
+    ) -> Result<AccelSpeedConfig, RunParamError> {
         let res = p.resolution.unwrap_or(Resolution {
             width: 800,
             height: 600,
@@ -338,7 +338,7 @@ impl Study for AccelSpeed {
                 Accelerator::build(kind, &scene.prims, bounded.clone())
             });
             let accel = Accelerator::build(kind, &scene.prims, bounded.clone())
-                .map_err(|e| Error::Accel(format!("building `{kind}`: {e}")))?;
+                .map_err(Error::accel(kind))?;
             build_s[i] = Secs(build.median());
             sides.push(accel);
         }

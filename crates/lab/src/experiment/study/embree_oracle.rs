@@ -7,7 +7,7 @@
 
 use super::{RunContext, Study};
 use crate::experiment::params::{
-    existing_file, or_default, parsed_opt, typed_params, InRange, ParamDoc, ParamError,
+    existing_file, or_default, parsed_opt, typed_params, InRange, ParamDoc, RunParamError,
 };
 use crate::experiment::row::{Exp, Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
@@ -199,14 +199,18 @@ impl Study for EmbreeOracle {
         &self,
         p: EmbreeOracleParams,
         base_dir: &Path,
-    ) -> Result<EmbreeOracleConfig, ParamError> {
+    ) -> Result<EmbreeOracleConfig, RunParamError> {
         let source = match (&p.mesh, p.quadrics) {
             (Some(m), None) => Source::Mesh(existing_file(base_dir, "mesh", m, "mesh")?),
             (None, Some(q)) => Source::Quadrics {
                 ellipsoids: q == Quadrics::Ellipsoids,
                 count: p.count.map_or(200, |c| c.get() as usize),
             },
-            _ => return Err(ParamError::run("give exactly one of `mesh` and `quadrics`")),
+            _ => {
+                return Err(RunParamError::run(
+                    "give exactly one of `mesh` and `quadrics`",
+                ))
+            }
         };
         let options = ValidationOptions {
             rays: p.rays.map_or(10_000, |r| r.get() as usize),

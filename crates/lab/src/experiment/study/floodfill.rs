@@ -21,10 +21,10 @@
 //! log scale shared by all snapshots of the run (solid voxels grey).
 
 use super::{median, RunContext, Study};
-use crate::analysis::plot::{ImageGrid, LineChart, Palette, Scale, Series, SeriesStyle};
+use crate::analysis::plot::{AxisScale, ImageGrid, LineChart, Palette, Series, SeriesStyle};
 use crate::experiment::params::render::scene_file;
 use crate::experiment::params::{
-    parsed_opt, typed_params, FromParam, InRange, ParamDoc, ParamError,
+    parsed_opt, typed_params, FromParam, InRange, ParamDoc, RunParamError,
 };
 use crate::experiment::row::{Exp, Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
@@ -62,14 +62,14 @@ pub struct BoxParam {
 }
 
 impl FromParam for BoxParam {
-    fn from_param(s: &str) -> Result<Self, ParamError> {
+    fn from_param(s: &str) -> Result<Self, RunParamError> {
         let v: Vec<f32> = s
             .split_whitespace()
             .map(str::parse::<f32>)
             .collect::<Result<_, _>>()
-            .map_err(|_| ParamError::run(format!("`{s}`: expected six numbers")))?;
+            .map_err(|_| RunParamError::run(format!("`{s}`: expected six numbers")))?;
         if v.len() != 6 || v.iter().any(|x| !x.is_finite()) {
-            return Err(ParamError::run(format!(
+            return Err(RunParamError::run(format!(
                 "`{s}`: expected six finite numbers \"x0 y0 z0 x1 y1 z1\""
             )));
         }
@@ -327,7 +327,7 @@ impl Study for FloodFillStudy {
         &self,
         p: FloodFillParams,
         base_dir: &Path,
-    ) -> Result<FloodFillStudyConfig, ParamError> {
+    ) -> Result<FloodFillStudyConfig, RunParamError> {
         let mut ff = FloodFillConfig::default();
         if let Some(a) = p.alpha {
             ff.alpha = a as f32;
@@ -342,14 +342,14 @@ impl Study for FloodFillStudy {
         if let Some(m) = p.max_irradiance {
             ff.max_irradiance = m as f32;
         }
-        ff.validate().map_err(ParamError::run)?;
+        ff.validate().map_err(RunParamError::run)?;
         let tolerance = p.tolerance.unwrap_or(1e-4);
         if tolerance <= 0.0 {
-            return Err(ParamError::new("tolerance", "must be positive"));
+            return Err(RunParamError::new("tolerance", "must be positive"));
         }
         let slice = p.slice.unwrap_or(0.5);
         if !(0.0..=1.0).contains(&slice) {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "slice",
                 format!("must be in [0, 1], got {slice}"),
             ));
@@ -459,7 +459,7 @@ impl Study for FloodFillStudy {
                 "‖I(t+1) − I(t)‖",
             );
             chart.series = vec![series("L2", |r| r.l2), series("max", |r| r.max)];
-            chart.y_scale = Scale::Log10;
+            chart.y_scale = AxisScale::Log10;
             chart.save(&ctx.out_dir.join(format!("residual-{tag}")))?;
 
             // One log scale for all snapshots: the last one's largest

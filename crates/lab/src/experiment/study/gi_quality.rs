@@ -58,7 +58,8 @@ use crate::analysis::metrics::{compare, flip_error_map, mse};
 use crate::analysis::plot::{ImageGrid, Palette};
 use crate::experiment::params::render::scene_file;
 use crate::experiment::params::{
-    existing_file, or_default, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    existing_file, or_default, parsed_opt, typed_params, InRange, ParamDoc, Resolution,
+    RunParamError,
 };
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
@@ -348,12 +349,15 @@ impl Study for GiQuality {
         &self,
         p: GiQualityParams,
         base_dir: &Path,
-    ) -> Result<GiQualityConfig, ParamError> {
+    ) -> Result<GiQualityConfig, RunParamError> {
         let scene = scene_file(base_dir, &p.scene)?;
         let integrator = or_default(p.integrator, "integrator", "path:4")?;
         let sampler = match (p.sampler, p.spp) {
             (Some(_), Some(_)) => {
-                return Err(ParamError::new("spp", "give `spp` or `sampler`, not both"));
+                return Err(RunParamError::new(
+                    "spp",
+                    "give `spp` or `sampler`, not both",
+                ));
             }
             (Some(s), None) => Some(s),
             (None, Some(n)) => Some(Sampler::Random { n: n.get() as u32 }),
@@ -363,7 +367,7 @@ impl Study for GiQuality {
         let clamp = match p.clamp {
             None => Some(1.0),
             Some(c) if c < 0.0 => {
-                return Err(ParamError::new(
+                return Err(RunParamError::new(
                     "clamp",
                     format!("must be a number of at least 0, got {c}"),
                 ))

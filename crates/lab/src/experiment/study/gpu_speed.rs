@@ -39,7 +39,7 @@
 use super::accel_cost::{mesh_scene, LabelledMesh, MeshSource, ProceduralSpec};
 use super::{median, RunContext, Study, StudySettings, Timings};
 use crate::experiment::params::{
-    parsed, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    parsed, parsed_opt, typed_params, InRange, ParamDoc, Resolution, RunParamError,
 };
 use crate::experiment::row::{Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
@@ -235,14 +235,18 @@ impl Study for GpuSpeed {
     type Config = GpuSpeedConfig;
     type Row = GpuSpeedRow;
 
-    fn configure(&self, p: GpuSpeedParams, base_dir: &Path) -> Result<GpuSpeedConfig, ParamError> {
+    fn configure(
+        &self,
+        p: GpuSpeedParams,
+        base_dir: &Path,
+    ) -> Result<GpuSpeedConfig, RunParamError> {
         let LabelledMesh { source, label } =
             MeshSource::from_params(p.mesh, p.procedural, base_dir)?;
         let device = match p.device.as_str() {
             "cpu" => GpuSpeedDevice::Cpu,
             "gpu" => GpuSpeedDevice::Gpu,
             other => {
-                return Err(ParamError::new(
+                return Err(RunParamError::new(
                     "device",
                     format!("expected \"cpu\" or \"gpu\", got \"{other}\""),
                 ))
@@ -252,7 +256,7 @@ impl Study for GpuSpeed {
             p.accel,
             AccelKind::Brute | AccelKind::Bvh(_) | AccelKind::Bvh4
         ) {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "accel",
                 "the GPU port has no Embree and no 8-wide tree: give `brute`, `bvh2`, `bvh:VOLUME[:BUILDER]` or `bvh4` (plain `bvh` is `bvh8`)",
             ));
@@ -311,7 +315,9 @@ impl Study for GpuSpeed {
         }
 
         let start = Instant::now();
-        scene.set_accel(cfg.accel).map_err(Error::Accel)?;
+        scene
+            .set_accel(cfg.accel)
+            .map_err(Error::accel(cfg.accel))?;
         let build_s = start.elapsed().as_secs_f64();
 
         let settings = ctx.settings;

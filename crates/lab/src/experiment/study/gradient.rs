@@ -18,7 +18,7 @@ use super::{RunContext, Study, StudySettings, Timings};
 use crate::analysis::plot::Heatmap;
 use crate::experiment::params::render::scene_file;
 use crate::experiment::params::{
-    parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    parsed_opt, typed_params, InRange, ParamDoc, Resolution, RunParamError,
 };
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
@@ -204,10 +204,10 @@ pub struct GradientRow {
 pub(super) fn differentiable_integrator(
     integrator: Option<IntegratorKind>,
     roulette: Option<bool>,
-) -> Result<IntegratorKind, ParamError> {
+) -> Result<IntegratorKind, RunParamError> {
     let integrator = integrator.unwrap_or(IntegratorKind::Whitted);
     if let IntegratorKind::FloodFill(_) = integrator {
-        return Err(ParamError::new(
+        return Err(RunParamError::new(
             "integrator",
             "derivatives are rendered for `whitted`, `direct` or `path:K`",
         ));
@@ -220,11 +220,14 @@ pub(super) fn differentiable_integrator(
 }
 
 /// A finite-difference step parameter `name`: absent, or positive.
-pub(super) fn positive_step(name: &'static str, v: Option<f64>) -> Result<Option<f32>, ParamError> {
+pub(super) fn positive_step(
+    name: &'static str,
+    v: Option<f64>,
+) -> Result<Option<f32>, RunParamError> {
     match v {
         None => Ok(None),
         Some(h) if h > 0.0 && h.is_finite() => Ok(Some(h as f32)),
-        Some(h) => Err(ParamError::new(
+        Some(h) => Err(RunParamError::new(
             name,
             format!("must be a positive number, got {h}"),
         )),
@@ -275,14 +278,18 @@ impl Study for Gradient {
     type Config = GradientConfig;
     type Row = GradientRow;
 
-    fn configure(&self, p: GradientParams, base_dir: &Path) -> Result<GradientConfig, ParamError> {
+    fn configure(
+        &self,
+        p: GradientParams,
+        base_dir: &Path,
+    ) -> Result<GradientConfig, RunParamError> {
         let scene = scene_file(base_dir, &p.scene)?;
         let integrator = differentiable_integrator(p.integrator, p.roulette)?;
         let what = match (p.param, p.cost_params) {
             (Some(name), None) => What::One(name),
             (None, Some(k)) => What::Count(k.get() as usize),
             _ => {
-                return Err(ParamError::new(
+                return Err(RunParamError::new(
                     "param",
                     "give exactly one of `param` and `cost_params`",
                 ))
@@ -290,7 +297,7 @@ impl Study for Gradient {
         };
         let check = p.check.unwrap_or(false);
         if check && matches!(what, What::Count(_)) {
-            return Err(ParamError::new("check", "`check` needs `param`"));
+            return Err(RunParamError::new("check", "`check` needs `param`"));
         }
         let step = positive_step("step", p.step)?;
         Ok(GradientConfig {
@@ -343,9 +350,7 @@ impl Study for Gradient {
                 threads: None,
             }));
         });
-        let g = grads
-            .expect("at least one repeat")
-            .map_err(err)?;
+        let g = grads.expect("at least one repeat").map_err(err)?;
         let name = desc.param_name(params[0]);
         let (ad_mean, std_error) = g.image_mean(0);
         let mut row = GradientRow {
@@ -372,8 +377,7 @@ impl Study for Gradient {
                 integrator: cfg.integrator,
                 threads: None,
             };
-            let c = diff::check_param(&source, &scene, &g, 0, h, renderer)
-                .map_err(err)?;
+            let c = diff::check_param(&source, &scene, &g, 0, h, renderer).map_err(err)?;
             row.step = Sci(f64::from(c.h));
             row.fd_mean = Sci(c.fd_mean);
             row.rel_error = Sci(c.mean_rel_error);

@@ -26,7 +26,7 @@ use super::{RunContext, Study};
 use crate::analysis::plot::{Heatmap, Palette};
 use crate::experiment::params::render::scene_file;
 use crate::experiment::params::{
-    parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    parsed_opt, typed_params, InRange, ParamDoc, Resolution, RunParamError,
 };
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
@@ -236,7 +236,7 @@ impl Study for GradientEstimators {
         &self,
         p: EstimatorParams,
         base_dir: &Path,
-    ) -> Result<EstimatorConfig, ParamError> {
+    ) -> Result<EstimatorConfig, RunParamError> {
         let scene = scene_file(base_dir, &p.scene)?;
         let integrator = differentiable_integrator(p.integrator, p.roulette)?;
         let estimator = match p.estimator.as_str() {
@@ -244,14 +244,14 @@ impl Study for GradientEstimators {
             "full" => Estimator::Ad(Visibility::Full),
             "fd" => Estimator::Fd,
             other => {
-                return Err(ParamError::new(
+                return Err(RunParamError::new(
                     "estimator",
                     format!("unknown estimator `{other}` (expected interior, full or fd)"),
                 ))
             }
         };
         if let Some(Sampler::Adaptive { .. }) = p.sampler {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "sampler",
                 "the estimators need a fixed sampler",
             ));

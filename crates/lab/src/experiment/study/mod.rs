@@ -30,7 +30,7 @@ pub mod registry;
 pub mod render_cost;
 pub mod timing;
 
-pub use super::params::{ParamDoc, ParamError};
+pub use super::params::{ParamDoc, RunParamError};
 pub use registry::{find, kinds_help, StudyKind, KINDS};
 pub use timing::{median, process_cpu_seconds, Timings};
 
@@ -82,7 +82,11 @@ pub trait Study: Sync {
     /// Check one run's parameters (values agree with each other, files
     /// exist) and resolve them, without running anything: every run is
     /// checked before the first one starts.
-    fn configure(&self, params: Self::Params, base_dir: &Path) -> Result<Self::Config, ParamError>;
+    fn configure(
+        &self,
+        params: Self::Params,
+        base_dir: &Path,
+    ) -> Result<Self::Config, RunParamError>;
 
     /// A row with the shape every row of the experiment has: the header of
     /// `data.csv` is its column names. The default row, unless the columns
@@ -132,7 +136,7 @@ pub trait DynStudy: Sync {
     fn columns(&self, settings: &StudySettings) -> Vec<String>;
 
     /// Read and check one run's parameters without running it.
-    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), ParamError>;
+    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), RunParamError>;
 
     /// Perform one run; its record has exactly [`DynStudy::columns`].
     fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> Result<Record, Error>;
@@ -162,7 +166,7 @@ impl<S: Study> DynStudy for S {
         }
     }
 
-    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), ParamError> {
+    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), RunParamError> {
         let params = S::Params::from_run(run)?;
         self.configure(params, base_dir).map(|_| ())
     }

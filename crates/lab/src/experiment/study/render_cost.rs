@@ -16,7 +16,7 @@
 
 use super::{RunContext, Study, StudySettings, Timings};
 use crate::experiment::params::render::{RenderConfig, RenderParams};
-use crate::experiment::params::ParamError;
+use crate::experiment::params::RunParamError;
 use crate::experiment::row::{CounterCells, Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
 use crate::Error;
@@ -76,7 +76,11 @@ impl Study for RenderCost {
     type Config = RenderConfig;
     type Row = RenderCostRow;
 
-    fn configure(&self, params: RenderParams, base_dir: &Path) -> Result<RenderConfig, ParamError> {
+    fn configure(
+        &self,
+        params: RenderParams,
+        base_dir: &Path,
+    ) -> Result<RenderConfig, RunParamError> {
         params.config(base_dir)
     }
 

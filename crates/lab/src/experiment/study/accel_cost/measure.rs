@@ -109,7 +109,9 @@ pub(super) fn extrapolate_brute(
     cfg: &AccelCostConfig,
     settings: StudySettings,
 ) -> Result<Measured, Error> {
-    scene.set_accel(cfg.reference).map_err(Error::Accel)?;
+    scene
+        .set_accel(cfg.reference)
+        .map_err(Error::accel(cfg.reference))?;
     let (_, full) = render::<_, Counters>(scene, &Whitted, None);
     let full_camera = scene.camera;
     let pixels = f64::from(full_camera.width) * f64::from(full_camera.height);
@@ -125,7 +127,9 @@ pub(super) fn extrapolate_brute(
     // Same eye, frame and view angles; fewer, larger pixels.
     scene.camera.width = side;
     scene.camera.height = side;
-    scene.set_accel(AccelKind::Brute).map_err(Error::Accel)?;
+    scene
+        .set_accel(AccelKind::Brute)
+        .map_err(Error::accel(AccelKind::Brute))?;
     let timings = Timings::measure(settings.warmup, settings.repeats, || {
         render::<_, NoStats>(scene, &Whitted, None)
     });

@@ -43,7 +43,7 @@ pub use scene::{mesh_scene, parse_procedural, LabelledMesh, MeshSource, Procedur
 
 use super::{RunContext, Study, StudySettings, Timings};
 use crate::experiment::params::{
-    or_default, parsed, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    or_default, parsed, parsed_opt, typed_params, InRange, ParamDoc, Resolution, RunParamError,
 };
 use crate::experiment::row::{CounterCells, Exp, Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
@@ -282,7 +282,7 @@ impl Study for AccelCost {
         &self,
         p: AccelCostParams,
         base_dir: &Path,
-    ) -> Result<AccelCostConfig, ParamError> {
+    ) -> Result<AccelCostConfig, RunParamError> {
         let LabelledMesh { source, label } =
             MeshSource::from_params(p.mesh, p.procedural, base_dir)?;
         let res = p.resolution.unwrap_or(Resolution {
@@ -291,14 +291,14 @@ impl Study for AccelCost {
         });
         let brute_sample_tests = p.brute_sample_tests.unwrap_or(DEFAULT_BRUTE_SAMPLE_TESTS);
         if brute_sample_tests < 1.0 {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "brute_sample_tests",
                 format!("must be a number of at least 1, got {brute_sample_tests}"),
             ));
         }
         let reference = or_default(p.reference, "reference", "bvh:aabb:sah")?;
         if reference == AccelKind::Brute {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "reference",
                 "must not be `brute`: it is the stand-in where brute force is too slow",
             ));
@@ -354,7 +354,7 @@ impl Study for AccelCost {
             Some(match cached(&key) {
                 Some(img) => img,
                 None => {
-                    scene.set_accel(ref_kind).map_err(Error::Accel)?;
+                    scene.set_accel(ref_kind).map_err(Error::accel(ref_kind))?;
                     let (film, _) = render::<_, NoStats>(&scene, &Whitted, None);
                     store(key, film.image())
                 }
@@ -362,7 +362,9 @@ impl Study for AccelCost {
         };
 
         let start = Instant::now();
-        scene.set_accel(cfg.accel).map_err(Error::Accel)?;
+        scene
+            .set_accel(cfg.accel)
+            .map_err(Error::accel(cfg.accel))?;
         let build_s = start.elapsed().as_secs_f64();
 
         let settings = ctx.settings;

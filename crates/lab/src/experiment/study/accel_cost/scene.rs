@@ -2,7 +2,7 @@
 //! ([`MeshSource`], a file or a procedural spec such as
 //! "icosphere:LEVEL") and S3's kind of image of it ([`mesh_scene`]).
 
-use crate::experiment::params::{existing_file, FromParam, ParamError};
+use crate::experiment::params::{existing_file, FromParam, RunParamError};
 use crate::Error;
 use raylab::camera::{Camera, CameraDesc};
 use raylab::io::procedural::{Procedural, MAX_TRIANGLES};
@@ -42,13 +42,13 @@ impl MeshSource {
         mesh: Option<String>,
         procedural: Option<ProceduralSpec>,
         base_dir: &std::path::Path,
-    ) -> Result<LabelledMesh, ParamError> {
+    ) -> Result<LabelledMesh, RunParamError> {
         match (mesh, procedural) {
-            (Some(_), Some(_)) => Err(ParamError::new(
+            (Some(_), Some(_)) => Err(RunParamError::new(
                 "procedural",
                 "give `mesh` or `procedural`, not both",
             )),
-            (None, None) => Err(ParamError::run(
+            (None, None) => Err(RunParamError::run(
                 "`mesh` or `procedural` is required (in [fixed] or in the sweep)",
             )),
             (Some(m), None) => Ok(LabelledMesh {
@@ -94,21 +94,21 @@ impl MeshSource {
 }
 
 /// Parse "icosphere:LEVEL", "torus_knot:P:Q:SEGMENTS:SIDES" or
-/// "terrain:N:SEED"; the error is the run's [`ParamError`], blamed on the
+/// "terrain:N:SEED"; the error is the run's [`RunParamError`], blamed on the
 /// parameter by whoever reads it.
-pub fn parse_procedural(spec: &str) -> Result<Procedural, ParamError> {
+pub fn parse_procedural(spec: &str) -> Result<Procedural, RunParamError> {
     let parts: Vec<&str> = spec.split(':').collect();
-    let num = |i: usize| -> Result<u64, ParamError> {
+    let num = |i: usize| -> Result<u64, RunParamError> {
         parts[i].trim().parse().map_err(|_| {
-            ParamError::run(format!(
+            RunParamError::run(format!(
                 "`{}` in `{spec}` is not a non-negative integer",
                 parts[i]
             ))
         })
     };
-    let small = |i: usize| -> Result<u32, ParamError> {
+    let small = |i: usize| -> Result<u32, RunParamError> {
         u32::try_from(num(i)?)
-            .map_err(|_| ParamError::run(format!("`{}` in `{spec}` is too large", parts[i])))
+            .map_err(|_| RunParamError::run(format!("`{}` in `{spec}` is too large", parts[i])))
     };
     let p = match (parts[0], parts.len()) {
         ("icosphere", 2) => Procedural::Icosphere { level: small(1)? },
@@ -123,7 +123,7 @@ pub fn parse_procedural(spec: &str) -> Result<Procedural, ParamError> {
             seed: num(2)?,
         },
         _ => {
-            return Err(ParamError::run(format!(
+            return Err(RunParamError::run(format!(
                 "`{spec}` is not \"icosphere:LEVEL\", \"torus_knot:P:Q:SEGMENTS:SIDES\" \
                  or \"terrain:N:SEED\""
             )))
@@ -131,7 +131,7 @@ pub fn parse_procedural(spec: &str) -> Result<Procedural, ParamError> {
     };
     let count = p.triangle_count();
     if count == 0 || count > MAX_TRIANGLES {
-        return Err(ParamError::run(format!(
+        return Err(RunParamError::run(format!(
             "`{spec}` gives {count} triangles; expected 1 to {MAX_TRIANGLES}"
         )));
     }
@@ -199,7 +199,7 @@ pub struct ProceduralSpec {
 }
 
 impl FromParam for ProceduralSpec {
-    fn from_param(s: &str) -> Result<Self, ParamError> {
+    fn from_param(s: &str) -> Result<Self, RunParamError> {
         Ok(ProceduralSpec {
             text: s.to_string(),
             procedural: parse_procedural(s)?,
