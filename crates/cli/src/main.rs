@@ -261,24 +261,43 @@ struct ValidateArgs {
     out: Option<PathBuf>,
 }
 
+/// An option's value that its parser below rejects (clap prints it after
+/// the option's name).
+#[derive(Debug, thiserror::Error)]
+enum BadValue {
+    /// `--rays`: not a number.
+    #[error("`{0}` is not a number (expected a count such as 10000 or 1e6)")]
+    #[cfg_attr(not(feature = "embree"), allow(dead_code))]
+    NotANumber(String),
+    /// `--rays`: not a whole number in range.
+    #[error("`{0}` must be a whole number from 1 to 1e9")]
+    #[cfg_attr(not(feature = "embree"), allow(dead_code))]
+    Count(String),
+    /// A tolerance of `validate`.
+    #[error("`{0}` is not a finite, non-negative number")]
+    #[cfg_attr(not(feature = "embree"), allow(dead_code))]
+    Tolerance(String),
+    /// `--rr-depth`.
+    #[error("`{0}` is not a bounce count (a whole number ≥ 0) or `off`")]
+    RrDepth(String),
+}
+
 /// A count such as `10000`, `1e6` or `2.5e5`: a whole number ≥ 1.
 #[cfg(feature = "embree")]
-fn parse_count(s: &str) -> Result<usize, String> {
-    let v: f64 = s
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number (expected a count such as 10000 or 1e6)"))?;
+fn parse_count(s: &str) -> Result<usize, BadValue> {
+    let v: f64 = s.parse().map_err(|_| BadValue::NotANumber(s.into()))?;
     if !((1.0..=1e9).contains(&v) && v.fract() == 0.0) {
-        return Err(format!("`{s}` must be a whole number from 1 to 1e9"));
+        return Err(BadValue::Count(s.into()));
     }
     Ok(v as usize)
 }
 
 /// A finite, non-negative number.
 #[cfg(feature = "embree")]
-fn parse_tolerance(s: &str) -> Result<f32, String> {
+fn parse_tolerance(s: &str) -> Result<f32, BadValue> {
     match s.parse::<f32>() {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        _ => Err(format!("`{s}` is not a finite, non-negative number")),
+        _ => Err(BadValue::Tolerance(s.into())),
     }
 }
 
@@ -492,13 +511,13 @@ struct OptimizeArgs {
 #[derive(Clone, Copy, Debug)]
 struct RrDepth(Option<u32>);
 
-fn parse_rr_depth(s: &str) -> Result<RrDepth, String> {
+fn parse_rr_depth(s: &str) -> Result<RrDepth, BadValue> {
     if s == "off" {
         return Ok(RrDepth(None));
     }
     s.parse::<u32>()
         .map(|k| RrDepth(Some(k)))
-        .map_err(|_| format!("`{s}` is not a bounce count (a whole number ≥ 0) or `off`"))
+        .map_err(|_| BadValue::RrDepth(s.into()))
 }
 
 fn main() -> ExitCode {
@@ -512,18 +531,8 @@ fn main() -> ExitCode {
         Command::Optimize(args) => return cmd_optimize(args),
         Command::Diff(args) => cmd_diff(args),
         Command::Experiment(args) => cmd_experiment(args),
-        Command::Merge(args) => {
-            let opts = experiment::MergeOptions {
-                out_dir: args.out,
-                shards: args.shards,
-                allow_missing: args.allow_missing,
-            };
-            report::MergeReport::run(&opts).and_then(|r| print_stdout(&r.to_string()))
-        }
-        Command::Plot { dir, out, manifest } => {
-            report::PlotReport::run(&dir, out.as_deref(), manifest.as_deref())
-                .and_then(|r| print_stdout(&r.to_string()))
-        }
+        Command::Merge(args) => cmd_merge(args),
+        Command::Plot { dir, out, manifest } => cmd_plot(&dir, out.as_deref(), manifest.as_deref()),
         Command::Stats {
             scene,
             accel,
@@ -543,7 +552,7 @@ fn main() -> ExitCode {
                 threads,
                 device,
             };
-            report::stats::run(&opts, &mut std::io::stdout().lock()).map(|_| ())
+            cmd_stats(&opts)
         }
         #[cfg(feature = "embree")]
         Command::Validate(args) => cmd_validate(args),
@@ -587,7 +596,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     if args.quiet {
         return Ok(());
     }
-    print_stdout(&report.to_string())
+    Ok(print_stdout(&report.to_string())?)
 }
 
 fn cmd_grad(args: GradArgs) -> Result<()> {
@@ -602,7 +611,9 @@ fn cmd_grad(args: GradArgs) -> Result<()> {
         threads: args.common.threads,
         progress: true,
     };
-    print_stdout(&report::grad::GradReport::run(&opts)?.to_string())
+    Ok(print_stdout(
+        &report::grad::GradReport::run(&opts)?.to_string(),
+    )?)
 }
 
 /// Exit status 130 when Ctrl-C stopped the run (after its figures were
@@ -639,9 +650,9 @@ fn cmd_optimize(args: OptimizeArgs) -> ExitCode {
 fn cmd_diff(args: DiffArgs) -> Result<()> {
     let report = report::DiffReport::run(&args.test, &args.reference, args.out.as_deref())?;
     if args.json {
-        print_stdout(&report.json()?)
+        Ok(print_stdout(&report.json()?)?)
     } else {
-        print_stdout(&report.to_string())
+        Ok(print_stdout(&report.to_string())?)
     }
 }
 
@@ -653,13 +664,15 @@ fn cmd_spectrum(args: SpectrumArgs) -> Result<()> {
         seed: args.seed,
         out: args.out,
     };
-    print_stdout(&report::SpectrumReport::run(&opts)?.to_string())
+    Ok(print_stdout(
+        &report::SpectrumReport::run(&opts)?.to_string(),
+    )?)
 }
 
 fn cmd_experiment(args: ExperimentArgs) -> Result<()> {
     // The gpu_speed study opens the GPU.
     quiet_wayland_probe(report::render::Device::Gpu);
-    let opts = experiment::Options {
+    let opts = experiment::ExperimentOptions {
         quick: args.quick,
         resume: args.resume,
         out_dir: args.out,
@@ -667,16 +680,42 @@ fn cmd_experiment(args: ExperimentArgs) -> Result<()> {
         progress: true,
         shard: args.shard,
     };
-    print_stdout(&report::ExperimentReport::run(&args.manifest, &opts)?.to_string())
+    Ok(print_stdout(
+        &report::ExperimentReport::run(&args.manifest, &opts)?.to_string(),
+    )?)
+}
+
+fn cmd_merge(args: MergeArgs) -> Result<()> {
+    let opts = experiment::MergeOptions {
+        out_dir: args.out,
+        shards: args.shards,
+        allow_missing: args.allow_missing,
+    };
+    Ok(print_stdout(&report::MergeReport::run(&opts)?.to_string())?)
+}
+
+fn cmd_plot(
+    dir: &std::path::Path,
+    out: Option<&std::path::Path>,
+    manifest: Option<&std::path::Path>,
+) -> Result<()> {
+    Ok(print_stdout(
+        &report::PlotReport::run(dir, out, manifest)?.to_string(),
+    )?)
+}
+
+fn cmd_stats(opts: &report::StatsOptions) -> Result<()> {
+    report::stats::run(opts, &mut std::io::stdout().lock())?;
+    Ok(())
 }
 
 #[cfg(feature = "embree")]
 fn cmd_validate(args: ValidateArgs) -> Result<()> {
-    use raylab_lab::validate::{Options, Tolerances};
+    use raylab_lab::validate::{Tolerances, ValidationOptions};
     let opts = report::ValidateOptions {
         mesh: args.mesh,
         scene: args.scene,
-        options: Options {
+        options: ValidationOptions {
             rays: args.rays,
             seed: args.seed,
             accels: args.accel,
@@ -696,5 +735,5 @@ fn cmd_validate(args: ValidateArgs) -> Result<()> {
     };
     let report = report::ValidateReport::run(&opts)?;
     print_stdout(&report.to_string())?;
-    report.check()
+    Ok(report.check()?)
 }

@@ -6,15 +6,15 @@
 use crate::raylab;
 use ndarray::Array3;
 use raylab::io::image::write_image;
-use raylab_lab::experiment::{load_manifest, run_experiment, Options};
+use raylab_lab::experiment::{load_manifest, run_experiment, ExperimentOptions};
 use std::path::Path;
 
 use raylab_testkit::experiment::{setup, write, MANIFEST};
 
-fn quiet(out: &Path) -> Options {
-    Options {
+fn quiet(out: &Path) -> ExperimentOptions {
+    ExperimentOptions {
         out_dir: Some(out.to_path_buf()),
-        ..Options::default()
+        ..ExperimentOptions::default()
     }
 }
 
@@ -331,7 +331,7 @@ fn resume_runs_only_the_missing_rows() {
     let kept = &lines[..lines.len() - 3];
     let partial = &lines[lines.len() - 3][..20];
     std::fs::write(&csv_path, kept.join("\n") + "\n" + partial).unwrap();
-    let resumed = Options {
+    let resumed = ExperimentOptions {
         resume: true,
         ..opts.clone()
     };
@@ -403,7 +403,7 @@ fn s1_manifest_plans_its_tables() {
 
     // The quick version runs (a few seconds) and draws every figure.
     let dir = tempfile::tempdir().unwrap();
-    let opts = Options {
+    let opts = ExperimentOptions {
         quick: true,
         ..quiet(dir.path())
     };
@@ -491,7 +491,7 @@ fn embree_speed_manifest_measures_both_sides_on_the_same_rays() {
     let m = load_manifest(&path).unwrap();
     assert_eq!(m.plan().unwrap().runs.len(), 5 * 2);
     let dir = tempfile::tempdir().unwrap();
-    let opts = Options {
+    let opts = ExperimentOptions {
         quick: true,
         ..quiet(dir.path())
     };

@@ -26,6 +26,7 @@ const CRATES: &[(&str, &str, &[&[&str]])] = &[
         "core",
         "raylab",
         &[
+            &["error"],
             &["math"],
             &["stats", "shading"],
             &["shape", "camera", "material", "sampler", "film"],
@@ -39,7 +40,7 @@ const CRATES: &[(&str, &str, &[&[&str]])] = &[
             &["diff"],
         ],
     ),
-    ("gpu", "raylab-gpu", &[&["upload"]]),
+    ("gpu", "raylab-gpu", &[&["error"], &["upload"]]),
     (
         "lab",
         "raylab-lab",

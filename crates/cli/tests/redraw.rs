@@ -4,7 +4,7 @@
 //! recorded manifest, or whose last row was cut short, is refused.
 
 use raylab_lab::experiment::meta::Meta;
-use raylab_lab::experiment::{redraw, run_experiment, Options};
+use raylab_lab::experiment::{redraw, run_experiment, ExperimentOptions};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -24,10 +24,10 @@ fn figures(dir: &Path) -> Vec<String> {
 fn quick_run() -> (tempfile::TempDir, PathBuf) {
     let (dir, manifest) = setup(MANIFEST);
     let run = dir.path().join("run");
-    let opts = Options {
+    let opts = ExperimentOptions {
         out_dir: Some(run.clone()),
         quick: true,
-        ..Options::default()
+        ..ExperimentOptions::default()
     };
     run_experiment(&manifest, &opts).unwrap();
     (dir, run)

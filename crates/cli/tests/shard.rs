@@ -5,7 +5,7 @@
 use raylab_lab::experiment::data::Table;
 use raylab_lab::experiment::merge::{merge_shards, MergeOptions};
 use raylab_lab::experiment::meta::Meta;
-use raylab_lab::experiment::{run_experiment, Options, Shard};
+use raylab_lab::experiment::{run_experiment, ExperimentOptions, Shard};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -22,10 +22,10 @@ fn is_timing(column: &str) -> bool {
 }
 
 fn run(manifest: &Path, out: &Path, shard: Option<Shard>) {
-    let opts = Options {
+    let opts = ExperimentOptions {
         out_dir: Some(out.to_path_buf()),
         shard,
-        ..Options::default()
+        ..ExperimentOptions::default()
     };
     run_experiment(manifest, &opts).unwrap();
 }
@@ -48,7 +48,7 @@ fn whole_and_shards(dir: &Path, manifest: &Path) -> (PathBuf, Vec<PathBuf>) {
     (whole, shards)
 }
 
-fn merge(out: &Path, shards: &[PathBuf], allow_missing: bool) -> anyhow::Result<()> {
+fn merge(out: &Path, shards: &[PathBuf], allow_missing: bool) -> raylab_lab::Result<()> {
     merge_shards(&MergeOptions {
         out_dir: out.to_path_buf(),
         shards: shards.to_vec(),
@@ -67,7 +67,7 @@ fn three_shards_merge_to_the_unsharded_rows() {
     // runs) dealt round-robin: 4, 4 and 3 groups, 5, 5 and 3 runs.
     let counts: Vec<usize> = shards
         .iter()
-        .map(|s| Table::read(&s.join("data.csv")).unwrap().0.rows.len())
+        .map(|s| Table::read(&s.join("data.csv")).unwrap().table.rows.len())
         .collect();
     assert_eq!(counts, [5, 5, 3]);
     assert!(!shards[0].join("time.png").exists());
@@ -81,8 +81,8 @@ fn three_shards_merge_to_the_unsharded_rows() {
     given.reverse();
     merge(&merged, &given, false).unwrap();
 
-    let (a, _) = Table::read(&whole.join("data.csv")).unwrap();
-    let (b, _) = Table::read(&merged.join("data.csv")).unwrap();
+    let a = Table::read(&whole.join("data.csv")).unwrap().table;
+    let b = Table::read(&merged.join("data.csv")).unwrap().table;
     assert_eq!(a.columns, b.columns);
     assert_eq!(a.rows.len(), b.rows.len());
     let compared: Vec<usize> = (0..a.columns.len())
@@ -142,7 +142,7 @@ fn merge_refuses_what_does_not_belong_together() {
     let e = err(&[shards[0].clone(), shards[1].clone(), foreign]);
     assert!(e.contains("differ in their manifest"), "{e}");
     // A row in the wrong shard's folder.
-    let (t3, _) = Table::read(&shards[2].join("data.csv")).unwrap();
+    let t3 = Table::read(&shards[2].join("data.csv")).unwrap().table;
     let mut text = std::fs::read_to_string(copy.join("data.csv")).unwrap();
     text.push_str(&t3.rows[0].join(","));
     text.push('\n');

@@ -19,7 +19,7 @@ use raylab_lab::analysis::spectrum::{
     periodogram, power_spectrum, radial_profile, sampler_periodogram, set_periodogram,
     white_noise_anisotropy_db,
 };
-use raylab_lab::experiment::{run_experiment, Options};
+use raylab_lab::experiment::{run_experiment, ExperimentOptions};
 use std::f64::consts::{PI, TAU};
 
 fn sampler(s: &str) -> Sampler {
@@ -381,9 +381,9 @@ title = "low-frequency power"
 "#,
     )
     .unwrap();
-    let opts = Options {
+    let opts = ExperimentOptions {
         out_dir: Some(dir.path().join("out")),
-        ..Options::default()
+        ..ExperimentOptions::default()
     };
     let report = run_experiment(&manifest, &opts).unwrap();
     assert_eq!(report.runs_done, 4);

@@ -15,6 +15,7 @@
 pub mod accel;
 pub mod camera;
 pub mod diff;
+pub mod error;
 pub mod film;
 pub mod gi;
 pub mod integrator;
@@ -29,3 +30,5 @@ pub mod shading;
 pub mod shape;
 pub mod stats;
 pub mod workload;
+
+pub use error::{ParseError, RangeError};

@@ -10,6 +10,7 @@
 //! (checkerboard, zone plate): point-sampled on purpose, with no filtering,
 //! so that the samplers alone decide how much they alias.
 
+use crate::error::RangeError;
 use crate::math::{Color, Real, Vec3, V3};
 use serde::{Deserialize, Serialize};
 
@@ -123,7 +124,7 @@ impl Texture {
     }
 
     /// Check ranges; the message names the field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), RangeError> {
         let (scale_name, scale, color, u, v) = match *self {
             Texture::Checker {
                 size,
@@ -141,20 +142,14 @@ impl Texture {
             } => ("k", k, color, u_axis, v_axis),
         };
         if !(scale > 0.0 && scale.is_finite()) {
-            return Err(format!(
-                "`{scale_name}` must be positive and finite, got {scale}"
-            ));
+            return Err(RangeError::new(scale_name, "positive and finite", scale));
         }
         if !(color.is_finite() && color.min_element() >= 0.0) {
-            return Err(format!(
-                "`color` must be non-negative and finite, got {color}"
-            ));
+            return Err(RangeError::new("color", "non-negative and finite", color));
         }
         for (name, a) in [("u_axis", u), ("v_axis", v)] {
             if !(a.is_finite() && a.length() > 0.0) {
-                return Err(format!(
-                    "`{name}` must be a finite non-zero vector, got {a}"
-                ));
+                return Err(RangeError::new(name, "a finite non-zero vector", a));
             }
         }
         Ok(())
@@ -262,12 +257,12 @@ impl Material {
     }
 
     /// Check ranges; returns a message naming the offending field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), RangeError> {
         let unit = |name: &str, v: f32| {
             if (0.0..=1.0).contains(&v) {
                 Ok(())
             } else {
-                Err(format!("`{name}` must be in [0, 1], got {v}"))
+                Err(RangeError::new(name, "in [0, 1]", v))
             }
         };
         unit("reflectivity", self.reflectivity)?;
@@ -279,14 +274,11 @@ impl Material {
             ("shininess", self.shininess),
         ] {
             if !(v >= 0.0 && v.is_finite()) {
-                return Err(format!("`{name}` must be non-negative and finite, got {v}"));
+                return Err(RangeError::new(name, "non-negative and finite", v));
             }
         }
         if !(self.ior > 0.0 && self.ior.is_finite()) {
-            return Err(format!(
-                "`ior` must be positive and finite, got {}",
-                self.ior
-            ));
+            return Err(RangeError::new("ior", "positive and finite", self.ior));
         }
         for (name, c) in [
             ("color", self.color),
@@ -294,11 +286,11 @@ impl Material {
             ("emission", self.emission),
         ] {
             if !(c.is_finite() && c.min_element() >= 0.0) {
-                return Err(format!("`{name}` must be non-negative and finite, got {c}"));
+                return Err(RangeError::new(name, "non-negative and finite", c));
             }
         }
         if let Some(t) = &self.texture {
-            t.validate().map_err(|e| format!("`texture`: {e}"))?;
+            t.validate().map_err(|e| e.within("texture"))?;
         }
         Ok(())
     }

@@ -44,6 +44,7 @@
 //! index) — or (seed, pixel) for the per-pixel randomisations — so any
 //! sample can be computed alone.
 
+use crate::error::ParseError;
 use crate::math::SplitMix64;
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
@@ -236,13 +237,17 @@ impl Sampler {
     /// Parse the CLI form: `centre`, `ogss:K` (or `ogss` for 2×2), `rgss`,
     /// `jitter:K`, `random:N`, `halton:N`, `sobol:N`, `adaptive[:T[:D]]`
     /// (contrast threshold T, default 0.1; depth D, default 2).
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, ParseError> {
         if let Some(rest) = s.strip_prefix("adaptive") {
             return parse_adaptive(rest);
         }
         let count = |what: &str, v: &str, max: u32| match v.parse::<u32>() {
             Ok(k) if (1..=max).contains(&k) => Ok(k),
-            _ => Err(format!("{what} must be an integer in 1..={max}, got `{v}`")),
+            _ => Err(ParseError::Value {
+                what: what.to_string(),
+                expected: format!("an integer in 1..={max}"),
+                given: v.to_string(),
+            }),
         };
         match s.split_once(':') {
             None if s == "centre" || s == "center" => Ok(Sampler::Centre),
@@ -263,10 +268,13 @@ impl Sampler {
             Some(("sobol", n)) => Ok(Sampler::Sobol {
                 n: count("sobol sample count", n, MAX_N)?,
             }),
-            _ => Err(format!(
-                "unknown sampler `{s}` (expected `centre`, `ogss:K`, `rgss`, `jitter:K`, \
-                 `random:N`, `halton:N`, `sobol:N` or `adaptive[:T[:D]]`)"
-            )),
+            _ => Err(ParseError::Unknown {
+                what: "sampler",
+                given: s.to_string(),
+                expected: "`centre`, `ogss:K`, `rgss`, `jitter:K`, `random:N`, `halton:N`, \
+                           `sobol:N` or `adaptive[:T[:D]]`"
+                    .into(),
+            }),
         }
     }
 
@@ -286,21 +294,25 @@ impl Sampler {
 }
 
 /// The part after `adaptive`: empty, `:T` or `:T:D`.
-fn parse_adaptive(rest: &str) -> Result<Sampler, String> {
+fn parse_adaptive(rest: &str) -> Result<Sampler, ParseError> {
     let mut parts = rest.split(':');
     if parts.next() != Some("") {
-        return Err(format!(
-            "unknown sampler `adaptive{rest}` (expected `adaptive[:T[:D]]`)"
-        ));
+        return Err(ParseError::Unknown {
+            what: "sampler",
+            given: format!("adaptive{rest}"),
+            expected: "`adaptive[:T[:D]]`".into(),
+        });
     }
     let threshold = match parts.next() {
         None => ADAPTIVE_THRESHOLD,
         Some(t) => match t.parse::<f32>() {
             Ok(v) if v >= 0.0 && v.is_finite() => v,
             _ => {
-                return Err(format!(
-                    "adaptive contrast threshold must be a non-negative number, got `{t}`"
-                ))
+                return Err(ParseError::Value {
+                    what: "adaptive contrast threshold".into(),
+                    expected: "a non-negative number".into(),
+                    given: t.to_string(),
+                })
             }
         },
     };
@@ -309,16 +321,20 @@ fn parse_adaptive(rest: &str) -> Result<Sampler, String> {
         Some(d) => match d.parse::<u32>() {
             Ok(v) if v <= MAX_DEPTH => v,
             _ => {
-                return Err(format!(
-                    "adaptive depth must be an integer in 0..={MAX_DEPTH}, got `{d}`"
-                ))
+                return Err(ParseError::Value {
+                    what: "adaptive depth".into(),
+                    expected: format!("an integer in 0..={MAX_DEPTH}"),
+                    given: d.to_string(),
+                })
             }
         },
     };
     if let Some(extra) = parts.next() {
-        return Err(format!(
-            "adaptive takes at most a threshold and a depth (`adaptive:T:D`), got extra `{extra}`"
-        ));
+        return Err(ParseError::Extra {
+            what: "adaptive",
+            expected: "a threshold and a depth (`adaptive:T:D`)",
+            extra: extra.to_string(),
+        });
     }
     Ok(Sampler::Adaptive { threshold, depth })
 }

@@ -65,13 +65,16 @@ impl std::fmt::Display for RayKind {
 }
 
 impl std::str::FromStr for RayKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        RayKind::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| {
-            format!(
-                "unknown ray kind `{s}` (expected camera, shadow, reflection, refraction, path or random)"
-            )
-        })
+    type Err = crate::ParseError;
+    fn from_str(s: &str) -> Result<Self, crate::ParseError> {
+        RayKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| crate::ParseError::Unknown {
+                what: "ray kind",
+                given: s.to_string(),
+                expected: "camera, shadow, reflection, refraction, path or random".into(),
+            })
     }
 }
 

@@ -484,7 +484,7 @@ fn names_parse_and_print() {
         "bvhx",
     ] {
         let err = parse(bad).unwrap_err();
-        assert!(err.contains("bvh:<volume>"), "{bad}: {err}");
+        assert!(err.to_string().contains("bvh:<volume>"), "{bad}: {err}");
     }
     assert_eq!(parse("brute"), Ok(AccelKind::Brute));
 }

@@ -110,6 +110,6 @@ fn floodfill_specs_parse_round_trip_and_reject_nonsense() {
         ("floodfill:steps=0", "`steps`"),
     ] {
         let err = IntegratorKind::parse(bad).unwrap_err();
-        assert!(err.contains(expect), "{bad}: {err}");
+        assert!(err.to_string().contains(expect), "{bad}: {err}");
     }
 }

@@ -9,7 +9,7 @@
 use raylab::diff::{self, GradientRender, Visibility};
 use raylab::integrator::IntegratorKind;
 use raylab::io::scene_file::{Overrides, SceneSource};
-use raylab::scene::param::{MeshField, ParamId, Shape, Target};
+use raylab::scene::param::{MeshField, ParamId, Target, ValueShape};
 use raylab::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -178,7 +178,7 @@ fn mesh_vertices_are_parameters_in_bulk() {
     let n = desc.meshes[0].data.positions.len() as u32;
     let all = desc.select("mesh[0].vertices").unwrap();
     assert_eq!(all.components, 0..3 * n);
-    assert_eq!(desc.shape_of(all.target), Shape::Points);
+    assert_eq!(desc.shape_of(all.target), ValueShape::Points);
     assert_eq!(desc.select("mesh[0].vertices[2]").unwrap().components, 6..9);
     assert_eq!(
         desc.select("mesh[0].vertices[2][1]").unwrap().components,

@@ -296,9 +296,9 @@ fn integrator_names_parse_and_bad_ones_explain() {
     assert_eq!(p.name(), "path:4");
     assert_eq!(p.path_tracer().unwrap().max_bounces, 4);
     let e = IntegratorKind::parse("path").unwrap_err();
-    assert!(e.contains("path:K"), "{e}");
+    assert!(e.to_string().contains("path:K"), "{e}");
     let e = IntegratorKind::parse("path:x").unwrap_err();
-    assert!(e.contains("0..="), "{e}");
+    assert!(e.to_string().contains("0..="), "{e}");
 }
 
 /// The Cornell box at `width` × `height` pixels and `spp` random samples.

@@ -33,14 +33,17 @@
 //! (or a shadow ray grazes an occluder): such pixels are counted and
 //! located by the tests (crates/gpu/tests/gpu.rs), not hidden by the tolerance.
 
+pub mod error;
 pub mod upload;
+
+pub use error::GpuError;
 
 use raylab::film::{Film, PixelStats};
 use raylab::math::Color;
 use raylab::scene::Scene;
 use raylab::stats::Counters;
 use std::time::Instant;
-use upload::{Kernel, Packed, Params};
+use upload::{Kernel, PackedScene, ShaderParams};
 
 /// The shader source, with `{{…}}` placeholders for the kernel constants:
 /// its four parts in order (shader/common.wgsl says what each holds).
@@ -109,18 +112,18 @@ impl GpuRender {
 impl Gpu {
     /// The first adapter wgpu finds on Vulkan, Metal or DX12 (a discrete
     /// GPU preferred). With none, an error that says how to get lavapipe.
-    pub fn new() -> Result<Self, String> {
+    pub fn new() -> Result<Self, GpuError> {
         Self::open(None)
     }
 
     /// [`Gpu::new`] with a device that allows storage buffers of at most
     /// `bytes` (wgpu enforces it): how a test meets a scene too large for
     /// the adapter without building one of gigabytes.
-    pub fn with_binding_limit(bytes: u64) -> Result<Self, String> {
+    pub fn with_binding_limit(bytes: u64) -> Result<Self, GpuError> {
         Self::open(Some(bytes))
     }
 
-    fn open(binding_limit: Option<u64>) -> Result<Self, String> {
+    fn open(binding_limit: Option<u64>) -> Result<Self, GpuError> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
             backends: wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12,
             ..wgpu::InstanceDescriptor::new_without_display_handle()
@@ -131,12 +134,8 @@ impl Gpu {
             compatible_surface: None,
             ..Default::default()
         }))
-        .map_err(|e| {
-            format!(
-                "no GPU adapter found ({e}); on Linux without a GPU, Mesa's software Vulkan \
-                 (lavapipe: Debian packages mesa-vulkan-drivers and libvulkan1, which \
-                 `make deps` installs) provides one"
-            )
+        .map_err(|e| GpuError::NoAdapter {
+            reason: e.to_string(),
         })?;
         let info = adapter.get_info();
         let mut limits = adapter.limits();
@@ -155,7 +154,10 @@ impl Gpu {
             required_limits: limits.clone(),
             ..Default::default()
         }))
-        .map_err(|e| format!("the GPU adapter {} refused a device: {e}", info.name))?;
+        .map_err(|e| GpuError::Device {
+            adapter: info.name.clone(),
+            reason: e.to_string(),
+        })?;
         Ok(Gpu {
             device,
             queue,
@@ -201,7 +203,7 @@ impl Gpu {
 
     /// Render `scene` with Whitted's integrator, keeping per-pixel counters
     /// when `counters` is set.
-    pub fn render(&self, scene: &Scene, counters: bool) -> Result<GpuRender, String> {
+    pub fn render(&self, scene: &Scene, counters: bool) -> Result<GpuRender, GpuError> {
         let mut times = GpuTimes::default();
         let start = Instant::now();
         let packed = upload::pack(scene)?;
@@ -222,12 +224,13 @@ impl Gpu {
         ];
         for (what, bytes) in sizes {
             if bytes > max_binding || bytes > self.limits.max_buffer_size {
-                return Err(format!(
-                    "{what} needs {bytes} bytes on the GPU, beyond the adapter's limit \
-                     (max_storage_buffer_binding_size {max_binding}, max_buffer_size {}) on {}; \
-                     render it with --device cpu",
-                    self.limits.max_buffer_size, self.info.name
-                ));
+                return Err(GpuError::TooLarge {
+                    what,
+                    bytes,
+                    max_binding,
+                    max_buffer: self.limits.max_buffer_size,
+                    adapter: self.info.name.clone(),
+                });
             }
         }
         let d = &self.device;
@@ -253,13 +256,13 @@ impl Gpu {
         // block each.
         let rows_per_band = (SAMPLES_PER_DISPATCH / w).clamp(1, h) as u32;
         let spp = packed.params.spp;
-        let bands: Vec<Params> = (0..spp)
+        let bands: Vec<ShaderParams> = (0..spp)
             .flat_map(|sample| {
                 (0..scene.camera.height)
                     .step_by(rows_per_band as usize)
                     .map(move |row| (sample, row))
             })
-            .map(|(sample, row)| Params {
+            .map(|(sample, row)| ShaderParams {
                 row_offset: row,
                 rows: rows_per_band.min(scene.camera.height - row),
                 sample_first: sample,
@@ -291,7 +294,7 @@ impl Gpu {
         // One empty dispatch (no rows): drivers that compile a pipeline
         // at its first use (lavapipe's LLVM) do it here, in `compile`,
         // not in the kernel's time.
-        let empty = self.uniform(bytemuck::bytes_of(&Params {
+        let empty = self.uniform(bytemuck::bytes_of(&ShaderParams {
             rows: 0,
             sample_count: 0,
             ..packed.params
@@ -364,13 +367,11 @@ impl Gpu {
         };
         let tripped = film_words.chunks_exact(8).filter(|p| p[7] != 0.0).count();
         if tripped > 0 {
-            return Err(format!(
-                "{tripped} pixels needed more than 65 000 loop iterations in one shader \
-                 invocation, and {} ends an invocation's loops after 65 535 (its guard against \
-                 endless shaders), which would leave them wrong: use a BVH rather than brute \
-                 force over {} primitives, a lower max_depth, or a hardware GPU",
-                self.info.name, packed.params.n_accel
-            ));
+            return Err(GpuError::LoopLimit {
+                pixels: tripped,
+                adapter: self.info.name.clone(),
+                primitives: packed.params.n_accel,
+            });
         }
         let mut film = Film::new(scene.camera.width, scene.camera.height);
         for (px, p) in film.pixels.iter_mut().zip(film_words.chunks_exact(8)) {
@@ -396,10 +397,10 @@ impl Gpu {
     /// The compute pipeline for this scene's kernel constants.
     fn pipeline(
         &self,
-        packed: &Packed,
+        packed: &PackedScene,
         max_depth: u32,
         counters: bool,
-    ) -> Result<wgpu::ComputePipeline, String> {
+    ) -> Result<wgpu::ComputePipeline, GpuError> {
         let source = shader_source(packed.kernel, max_depth, counters, self.loop_guard());
         let d = &self.device;
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -421,10 +422,10 @@ impl Gpu {
             cache: None,
         });
         if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(format!(
-                "the GPU shader failed to build on {}: {e}",
-                self.info.name
-            ));
+            return Err(GpuError::Shader {
+                adapter: self.info.name.clone(),
+                reason: e.to_string(),
+            });
         }
         Ok(pipeline)
     }
@@ -458,15 +459,18 @@ impl Gpu {
         b
     }
 
-    fn wait(&self) -> Result<(), String> {
+    fn wait(&self) -> Result<(), GpuError> {
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
             .map(|_| ())
-            .map_err(|e| format!("waiting for the GPU ({}): {e}", self.info.name))
+            .map_err(|e| GpuError::Wait {
+                adapter: self.info.name.clone(),
+                reason: e.to_string(),
+            })
     }
 
     /// Copy `bytes` of `src` back to the host as `T`s.
-    fn read<T: bytemuck::Pod>(&self, src: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>, String> {
+    fn read<T: bytemuck::Pod>(&self, src: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>, GpuError> {
         let staging = self.buffer(
             "readback",
             bytes,
@@ -481,12 +485,13 @@ impl Gpu {
             let _ = tx.send(r);
         });
         self.wait()?;
+        let readback = |reason: String| GpuError::Readback { reason };
         rx.recv()
-            .map_err(|e| e.to_string())?
-            .map_err(|e| format!("reading back from the GPU: {e}"))?;
+            .map_err(|e| readback(e.to_string()))?
+            .map_err(|e| readback(e.to_string()))?;
         let data = slice
             .get_mapped_range()
-            .map_err(|e| format!("reading back from the GPU: {e}"))?;
+            .map_err(|e| readback(e.to_string()))?;
         let out = bytemuck::cast_slice(&data).to_vec();
         drop(data);
         staging.unmap();

@@ -1,6 +1,6 @@
 //! A scene as the shader reads it: one array of 32-bit words holding every
 //! section (nodes, primitive slots, primitives, meshes' shading normals,
-//! materials, lights, the Halton table), and the uniform [`Params`] with
+//! materials, lights, the Halton table), and the uniform [`ShaderParams`] with
 //! the camera, the settings and each section's word offset.
 //!
 //! The primitives are the accelerator's own leaf order: slot i of the GPU's
@@ -21,6 +21,7 @@
 //! - material (32 words, per object): see `shader/whitted.wgsl`;
 //! - point light (8): position, inverse-square flag, radiance, unused.
 
+use crate::error::GpuError;
 use raylab::accel::bvh::volume::{BoundingVolume, QUADRIC_MARGIN};
 use raylab::accel::bvh::{BoundingEllipsoid, BoundingSphere, Bvh};
 use raylab::accel::Accelerator;
@@ -31,10 +32,11 @@ use raylab::sampler::{halton_point, Sampler};
 use raylab::scene::Scene;
 use raylab::shape::{PrimArrays, OFFSET_SCALE};
 
-/// The uniform block of `shader/common.wgsl`, field for field (256 bytes).
+/// The uniform block of `shader/common.wgsl` (its `struct Params`), field
+/// for field (256 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct Params {
+pub struct ShaderParams {
     pub eye: [f32; 3],
     pub near: f32,
     pub u: [f32; 3],
@@ -85,7 +87,7 @@ pub struct Params {
     pub sample_count: u32,
 }
 
-const _: () = assert!(std::mem::size_of::<Params>() == 256);
+const _: () = assert!(std::mem::size_of::<ShaderParams>() == 256);
 
 /// Which traversal the shader compiles in: `ACCEL` and `VOLUME`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,9 +99,9 @@ pub struct Kernel {
 }
 
 /// The scene in words, with its parameters and kernel.
-pub struct Packed {
+pub struct PackedScene {
     pub words: Vec<u32>,
-    pub params: Params,
+    pub params: ShaderParams,
     pub kernel: Kernel,
 }
 
@@ -132,21 +134,18 @@ fn binary_nodes<V: BoundingVolume>(bvh: &Bvh<V>, volume: impl Fn(&V) -> [f32; 8]
 /// Embree's tree, samplers that are not pure functions of the sample
 /// index, filters wider than the box, depth limits above
 /// [`GPU_MAX_DEPTH`].
-pub fn pack(scene: &Scene) -> Result<Packed, String> {
+pub fn pack(scene: &Scene) -> Result<PackedScene, GpuError> {
     let set = &scene.settings;
     if set.max_depth > GPU_MAX_DEPTH {
-        return Err(format!(
-            "the GPU renders max_depth ≤ {GPU_MAX_DEPTH} (its ray stacks are sized by it), and \
-             this scene has max_depth {}; lower it or use --device cpu",
-            set.max_depth
-        ));
+        return Err(GpuError::MaxDepth {
+            max_depth: set.max_depth,
+            limit: GPU_MAX_DEPTH,
+        });
     }
     if set.filter != raylab::film::Filter::Box {
-        return Err(format!(
-            "the GPU film is the box filter (each pixel's own mean); the scene asks for the {} \
-             filter: use --filter box or --device cpu",
-            set.filter.name()
-        ));
+        return Err(GpuError::Filter {
+            filter: set.filter.name().to_string(),
+        });
     }
     let (sampler, sampler_k) = match set.sampler {
         Sampler::Centre => (0, 1),
@@ -156,22 +155,16 @@ pub fn pack(scene: &Scene) -> Result<Packed, String> {
         Sampler::Random { n } => (4, n),
         Sampler::Halton { n } => (5, n),
         Sampler::Sobol { n } => (6, n),
-        Sampler::Adaptive { .. } => {
-            return Err(
-                "the adaptive sampler chooses its rays from the image as it goes, \
-                        which the GPU port does not do: use another sampler or --device cpu"
-                    .into(),
-            )
-        }
+        Sampler::Adaptive { .. } => return Err(GpuError::AdaptiveSampler),
     };
 
     let mut words = Vec::new();
-    let mut p = Params {
+    let mut p = ShaderParams {
         inf: f32::INFINITY,
         slab_exit_scale: SLAB_EXIT_SCALE,
         offset_scale: OFFSET_SCALE,
         quadric_margin: QUADRIC_MARGIN,
-        ..Params::default()
+        ..ShaderParams::default()
     };
 
     // The tree and the slot order it implies.
@@ -262,22 +255,13 @@ pub fn pack(scene: &Scene) -> Result<Packed, String> {
                 b.indices().to_vec(),
             )
         }
-        Accelerator::Bvh8(_) => {
-            return Err(
-                "the GPU port has no 8-wide tree (`bvh` and `bvh8` name it); on the GPU \
-                 use --accel brute, bvh2, bvh:<volume>… or bvh4"
-                    .into(),
-            )
-        }
+        Accelerator::Bvh8(_) => return Err(GpuError::Bvh8),
         // Embree's tree lives inside Embree, obvhs's inside obvhs (each with
         // its feature of the core crate): neither can be uploaded.
         other => {
-            return Err(format!(
-                "`{}` is a tree inside another library (Embree or obvhs) and cannot be \
-                 uploaded: the GPU port runs raylab's own trees; on the GPU use \
-                 --accel brute, bvh2, bvh:<volume>… or bvh4",
-                other.kind()
-            ))
+            return Err(GpuError::ForeignTree {
+                accel: other.kind().to_string(),
+            })
         }
     };
     if kernel.accel == 1 {
@@ -366,7 +350,7 @@ pub fn pack(scene: &Scene) -> Result<Packed, String> {
     p.seed_lo = set.seed as u32;
     p.seed_hi = (set.seed >> 32) as u32;
     p.n_lights = scene.lights.len() as u32;
-    Ok(Packed {
+    Ok(PackedScene {
         words,
         params: p,
         kernel,

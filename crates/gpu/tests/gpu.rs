@@ -307,7 +307,8 @@ fn a_scene_beyond_the_adapters_buffer_limit_is_a_clear_error() {
     let err = small_gpu
         .render(&scene, false)
         .err()
-        .expect("camel is > 1 MiB");
+        .expect("camel is > 1 MiB")
+        .to_string();
     assert!(
         err.contains("max_storage_buffer_binding_size 1048576") && err.contains("the scene needs"),
         "{err}"
@@ -359,7 +360,7 @@ fn what_the_gpu_does_not_do_is_refused_by_name() {
     }
     for (path, overrides, want) in cases {
         let scene = load(path, &overrides);
-        let err = gpu.render(&scene, false).err().expect(want);
+        let err = gpu.render(&scene, false).err().expect(want).to_string();
         assert!(err.contains(want), "{want}: {err}");
     }
 }
@@ -379,7 +380,11 @@ fn lavapipes_loop_limit_is_an_error_not_a_wrong_image() {
         ..small(16, 12)
     };
     let scene = load("data/scenes/bunny.toml", &overrides);
-    let err = gpu.render(&scene, false).err().expect("over the limit");
+    let err = gpu
+        .render(&scene, false)
+        .err()
+        .expect("over the limit")
+        .to_string();
     assert!(
         err.contains("65 535") && err.contains("brute force over 75408 primitives"),
         "{err}"

@@ -300,7 +300,7 @@ fn bad_textures_and_filters_name_the_line() {
 /// reference sampler is refused before anything runs.
 #[test]
 fn aa_images_study_measures_against_a_cached_reference() {
-    use raylab_lab::experiment::{run_experiment, Options};
+    use raylab_lab::experiment::{run_experiment, ExperimentOptions};
     let dir = tempfile::tempdir().unwrap();
     let scene = raylab_testkit::repo().join("data/scenes/aa/zone-plate.toml");
     let manifest = format!(
@@ -311,12 +311,12 @@ fn aa_images_study_measures_against_a_cached_reference() {
     let path = dir.path().join("aa.toml");
     std::fs::write(&path, &manifest).unwrap();
     let out = dir.path().join("out");
-    let opts = Options {
+    let opts = ExperimentOptions {
         quick: false,
         resume: false,
         out_dir: Some(out.clone()),
         threads: Some(2),
-        ..Options::default()
+        ..ExperimentOptions::default()
     };
     run_experiment(&path, &opts).unwrap();
     let reference = out.join("references/zone-plate-32x32-jitter8.exr");

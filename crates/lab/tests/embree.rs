@@ -20,8 +20,8 @@ use raylab::stats::NoStats;
 use raylab_lab::validate::compare::{incidence, place, t_tolerance};
 use raylab_lab::validate::rays::point_on;
 use raylab_lab::validate::{
-    compare_set, random_quadrics, Input, Options, Place, RaySet, Report, SetReport, Tally,
-    Tolerances,
+    compare_set, random_quadrics, HitPlace, Input, RaySet, SetComparison, SetReport, Tally,
+    Tolerances, ValidationOptions, ValidationReport,
 };
 
 /// The default tolerances: |Δt|/t 10⁻⁵ beyond 1° from grazing, the
@@ -85,25 +85,25 @@ fn compare(prims: &[Primitive], rays: Vec<Ray>, config: EmbreeConfig) -> Tally {
     let ids = all(prims);
     let accel = Accelerator::build(AccelKind::Brute, prims, ids.clone()).unwrap();
     let embree = EmbreeAccel::build(prims, &ids, config).unwrap();
-    let opts = Options {
+    let opts = ValidationOptions {
         embree: config,
         worst: 5,
         // Brute-force any-hit over the camel would triple the cost;
         // `mixed_scene_with_finite_t_max` checks occlusion.
         any_hit: false,
-        ..Options::default()
+        ..ValidationOptions::default()
     };
     let set = RaySet {
         name: "random",
         rays,
     };
-    let (report, worst) = compare_set(&input, &set, &accel, &embree, &opts);
+    let SetComparison { report, worst } = compare_set(&input, &set, &accel, &embree, &opts);
     let t = report.tally;
     assert_eq!(
         t.unexplained(),
         0,
         "{}",
-        Report {
+        ValidationReport {
             input: String::new(),
             primitives: prims.len(),
             triangles: 0,
@@ -299,7 +299,7 @@ fn mixed_scene_with_finite_t_max() {
                 let ok = first.is_some_and(|(p, h)| {
                     let prim = &prims[p as usize];
                     let near_end = (h.t - t_max).abs() <= t_tolerance(&TOL, ray, prim, &h, 1.0);
-                    near_end || place(&TOL, &prims, ray, p, &h) != Place::Elsewhere
+                    near_end || place(&TOL, &prims, ray, p, &h) != HitPlace::Elsewhere
                 });
                 assert!(
                     ok,

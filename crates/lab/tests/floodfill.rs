@@ -422,14 +422,14 @@ fn voxelised_sphere_has_the_expected_volume() {
 
 #[test]
 fn quick_convergence_manifest_runs_and_reports_leaks_and_divergence() {
-    use raylab_lab::experiment::{load_manifest, run_experiment, Options};
+    use raylab_lab::experiment::{load_manifest, run_experiment, ExperimentOptions};
     let path = raylab_testkit::repo().join("analysis/floodfill-convergence.toml");
     let m = load_manifest(&path).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let opts = Options {
+    let opts = ExperimentOptions {
         quick: true,
         out_dir: Some(dir.path().to_path_buf()),
-        ..Options::default()
+        ..ExperimentOptions::default()
     };
     let report = run_experiment(&path, &opts).unwrap();
     // snapshots 4, alpha 7 gains × 2 averagings, alpha-clamped 1,

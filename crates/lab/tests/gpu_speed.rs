@@ -4,7 +4,7 @@
 //! rays; every row and meta.json name the adapter; brute force above its
 //! face limit is refused.
 
-use raylab_lab::experiment::{run_experiment, Options};
+use raylab_lab::experiment::{run_experiment, ExperimentOptions};
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -54,9 +54,9 @@ fn gpu_rows_split_the_time_and_count_the_cpus_rays() {
     let Some(adapter) = adapter() else { return };
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let opts = Options {
+    let opts = ExperimentOptions {
         out_dir: Some(out.clone()),
-        ..Options::default()
+        ..ExperimentOptions::default()
     };
     let report = run_experiment(&manifest(dir.path(), 1000), &opts).unwrap();
     assert_eq!(report.runs_done, 4);
@@ -130,9 +130,9 @@ fn brute_force_above_its_face_limit_is_refused() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let opts = Options {
+    let opts = ExperimentOptions {
         out_dir: Some(dir.path().join("out")),
-        ..Options::default()
+        ..ExperimentOptions::default()
     };
     let err = run_experiment(&manifest(dir.path(), 10), &opts).unwrap_err();
     let msg = format!("{err:#}");

@@ -4,7 +4,7 @@
 //! face limit is extrapolated and marked, and bad parameters are reported
 //! at their place in the manifest.
 
-use raylab_lab::experiment::{load_manifest, run_experiment, Options};
+use raylab_lab::experiment::{load_manifest, run_experiment, ExperimentOptions};
 use std::path::PathBuf;
 
 fn repo() -> PathBuf {
@@ -20,10 +20,10 @@ const QUICK_BRUTE_MAX_FACES: f64 = 1000.0;
 fn quick_ladder_matches_brute_force_and_counts_consistently() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let opts = Options {
+    let opts = ExperimentOptions {
         quick: true,
         out_dir: Some(out.clone()),
-        ..Options::default()
+        ..ExperimentOptions::default()
     };
     let report = run_experiment(&repo().join("analysis/s3-bvh-ladder.toml"), &opts).unwrap();
     assert_eq!(report.runs_done, report.runs_total);

@@ -6,7 +6,7 @@
 
 use ndarray::{Array2, Array3};
 use raylab_lab::analysis::plot::{
-    BarChart, BarSeries, Heatmap, Histogram, ImageGrid, LineChart, Palette, Scale, Series,
+    AxisScale, BarChart, BarSeries, Heatmap, Histogram, ImageGrid, LineChart, Palette, Series,
     SeriesStyle,
 };
 use std::path::{Path, PathBuf};
@@ -50,8 +50,8 @@ fn check_outputs(stem: &Path, size: Option<(u32, u32)>, texts: &[&str]) -> (u32,
 
 fn cost_curves() -> LineChart {
     let mut chart = LineChart::new("BVH traversal cost", "triangles", "box tests per ray");
-    chart.x_scale = Scale::Log10;
-    chart.y_scale = Scale::Log10;
+    chart.x_scale = AxisScale::Log10;
+    chart.y_scale = AxisScale::Log10;
     let ns = [1e2, 1e3, 1e4, 1e5, 1e6];
     chart.series.push(Series::new(
         "median split",
@@ -128,7 +128,7 @@ fn log_axis_with_a_zero_value_is_skipped_not_a_panic() {
     let out = out_dir();
     let stem = out.path.join("line-log-zero");
     let mut chart = LineChart::new("with a zero", "n", "cost");
-    chart.y_scale = Scale::Log10;
+    chart.y_scale = AxisScale::Log10;
     chart.series.push(Series::new(
         "s",
         vec![(0.0, 0.0), (1.0, 10.0), (2.0, 100.0), (3.0, 0.0)],
@@ -143,7 +143,7 @@ fn log_axis_with_only_zeros_is_a_clear_error_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let stem = dir.path().join("zeros");
     let mut chart = LineChart::new("all zero", "n", "cost");
-    chart.y_scale = Scale::Log10;
+    chart.y_scale = AxisScale::Log10;
     chart.series.push(Series::new(
         "s",
         vec![(1.0, 0.0), (2.0, 0.0)],
@@ -195,7 +195,7 @@ fn grouped_bar_chart_has_categories_and_legend() {
         ],
     );
     // The same on a log axis, where the brute-force bars are visible.
-    chart.y_scale = Scale::Log10;
+    chart.y_scale = AxisScale::Log10;
     chart.series[0].values[1] = 0.0;
     let stem = out.path.join("bars-log");
     chart.save(&stem).unwrap();
@@ -212,7 +212,7 @@ fn histogram_writes_both_files() {
         .collect();
     let mut h = Histogram::new("Box tests per ray", "box tests", values, 25);
     h.y_label = "rays".into();
-    h.y_scale = Scale::Log10;
+    h.y_scale = AxisScale::Log10;
     h.save(&stem).unwrap();
     check_outputs(&stem, Some((1200, 800)), &["Box tests per ray", "rays"]);
     assert_eq!(

@@ -13,25 +13,25 @@
 
 use raylab::accel::{AccelKind, BvhConfig};
 use raylab_lab::validate::{
-    random_quadrics, validate, Input, Options, Outcome, Place, Report, Tally,
+    random_quadrics, validate, HitPlace, Input, Outcome, Tally, ValidationOptions, ValidationReport,
 };
 
 use raylab_testkit::external;
 
 /// Assert the acceptance criteria on every set of a report.
-fn assert_accepted(report: &Report) {
+fn assert_accepted(report: &ValidationReport) {
     eprint!("{}", report.table());
     for s in &report.sets {
         let t: &Tally = &s.tally;
         let what = format!("{} {} ({})", report.input, s.set, s.accel);
         assert_eq!(t.unexplained(), 0, "{what}:\n{}", report.worst_text());
-        assert_eq!(t.disagreements_at(Place::Elsewhere), 0, "{what}");
+        assert_eq!(t.disagreements_at(HitPlace::Elsewhere), 0, "{what}");
         assert!(
             t.max_rel_dt_above_floor <= 1e-5,
             "{what}: max |Δt|/t {:e}",
             t.max_rel_dt_above_floor
         );
-        let edge = t.disagreements_at(Place::Edge) + t.disagreements_at(Place::Vertex);
+        let edge = t.disagreements_at(HitPlace::Edge) + t.disagreements_at(HitPlace::Vertex);
         assert_eq!(t.edge_leaks.0 + t.edge_leaks.1, edge, "{what}");
         // Normals: every angle within its bound (10⁻⁴, or a thin
         // triangle's conditioning bound) is checked by `unexplained`.
@@ -43,12 +43,12 @@ fn assert_accepted(report: &Report) {
     assert!(report.breaches(&tol).is_empty());
 }
 
-fn bvh_options(rays: usize, seed: u64) -> Options {
-    Options {
+fn bvh_options(rays: usize, seed: u64) -> ValidationOptions {
+    ValidationOptions {
         rays,
         seed,
         accels: vec![AccelKind::Bvh(BvhConfig::default())],
-        ..Options::default()
+        ..ValidationOptions::default()
     }
 }
 
@@ -58,7 +58,7 @@ fn bvh_options(rays: usize, seed: u64) -> Options {
 /// ray sets (6 for open meshes, which have no inside) of 28 000 rays per
 /// seed, ≥ 5·10⁵ rays per mesh, 9·10⁶ in all. Zero unexplained
 /// disagreements for any of them: a ray that starts on a surface is
-/// classed apart (`Place::Origin`), never unexplained.
+/// classed apart (`HitPlace::Origin`), never unexplained.
 #[test]
 fn real_meshes_agree_with_embree() {
     let meshes: [(&str, [u64; 3]); 17] = [
@@ -116,7 +116,7 @@ fn edge_disagreements_are_attributed() {
     let report = validate(&input, &bvh_options(20_000, 3)).unwrap();
     let edges = report.sets.iter().find(|s| s.set == "edges").unwrap();
     let t = &edges.tally;
-    let borderline = t.disagreements_at(Place::Edge) + t.disagreements_at(Place::Vertex);
+    let borderline = t.disagreements_at(HitPlace::Edge) + t.disagreements_at(HitPlace::Vertex);
     assert!(borderline > 0, "no edge disagreement to attribute: {t:?}");
     assert_eq!(t.edge_leaks.0 + t.edge_leaks.1, borderline);
     assert!(t.edge_leaks.0 < t.edge_leaks.1, "{t:?}");
@@ -125,7 +125,7 @@ fn edge_disagreements_are_attributed() {
         matches!(
             c.verdict.outcome,
             Outcome::Disagree {
-                place: Place::Edge | Place::Vertex,
+                place: HitPlace::Edge | HitPlace::Vertex,
                 ..
             }
         )
@@ -149,9 +149,9 @@ fn quadrics_agree_with_embree() {
             prims: random_quadrics(200, 5, ellipsoids),
             camera: None,
         };
-        let opts = Options {
+        let opts = ValidationOptions {
             rays: 20_000,
-            ..Options::default()
+            ..ValidationOptions::default()
         };
         let report = validate(&input, &opts).unwrap();
         assert_accepted(&report);

@@ -20,10 +20,25 @@ pub use obvhs::ObvhsAccel;
 
 use bvh::{Aabb, BoundingEllipsoid, BoundingSphere, BuildOptions, VolumeKind};
 
+use crate::error::ParseError;
 use crate::shape::{PreparedRay, PrimHit, Primitive};
 use crate::stats::Stats;
 use std::fmt;
 use std::str::FromStr;
+
+/// Why an accelerator could not be built over a scene's primitives: only
+/// the trees inside other libraries can fail.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum AccelError {
+    /// Embree reported an error (no usable device, out of memory).
+    #[cfg(feature = "embree")]
+    #[error(transparent)]
+    Embree(embree::EmbreeError),
+    /// obvhs cannot hold the scene (primitives other than triangles).
+    #[cfg(feature = "obvhs")]
+    #[error(transparent)]
+    Obvhs(obvhs::ObvhsError),
+}
 
 /// The query interface every accelerator implements. `prims` is the scene's
 /// full primitive list; an accelerator only ever looks at the bounded ones
@@ -77,8 +92,8 @@ pub enum AccelKind {
 }
 
 impl FromStr for AccelKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = ParseError;
+    fn from_str(s: &str) -> Result<Self, ParseError> {
         match s {
             "brute" => Ok(AccelKind::Brute),
             "bvh4" => Ok(AccelKind::Bvh4),
@@ -87,22 +102,30 @@ impl FromStr for AccelKind {
             #[cfg(feature = "embree")]
             _ if s.starts_with("embree") => s.parse().map(AccelKind::Embree),
             #[cfg(not(feature = "embree"))]
-            _ if s.starts_with("embree") => Err(format!(
-                "accelerator `{s}` needs Embree, but this raylab was built without the `embree` feature"
-            )),
+            _ if s.starts_with("embree") => Err(ParseError::NotBuilt {
+                what: "accelerator",
+                given: s.to_string(),
+                needs: "Embree",
+                feature: "embree",
+            }),
             #[cfg(feature = "obvhs")]
             "obvhs" => Ok(AccelKind::Obvhs),
             #[cfg(not(feature = "obvhs"))]
-            "obvhs" => Err(
-                "accelerator `obvhs` needs the obvhs crate, but this raylab was built without \
-                 the `obvhs` feature"
-                    .to_string(),
-            ),
-            _ => Err(format!(
-                "unknown accelerator `{s}` (expected `brute`, `bvh` (the fastest tree, \
-                 `bvh8`), {}, `bvh4`, `bvh8`, `embree[:low|medium|high][+robust]` or `obvhs`)",
-                bvh::BVH_GRAMMAR
-            )),
+            "obvhs" => Err(ParseError::NotBuilt {
+                what: "accelerator",
+                given: s.to_string(),
+                needs: "the obvhs crate",
+                feature: "obvhs",
+            }),
+            _ => Err(ParseError::Unknown {
+                what: "accelerator",
+                given: s.to_string(),
+                expected: format!(
+                    "`brute`, `bvh` (the fastest tree, `bvh8`), {}, `bvh4`, `bvh8`, \
+                     `embree[:low|medium|high][+robust]` or `obvhs`",
+                    bvh::BVH_GRAMMAR
+                ),
+            }),
         }
     }
 }
@@ -149,7 +172,11 @@ impl Accelerator {
     /// into `prims`). Only Embree (no usable device, out of memory: the
     /// error says what Embree reported) and obvhs (anything but triangles)
     /// can fail.
-    pub fn build(kind: AccelKind, prims: &[Primitive], bounded: Vec<u32>) -> Result<Self, String> {
+    pub fn build(
+        kind: AccelKind,
+        prims: &[Primitive],
+        bounded: Vec<u32>,
+    ) -> Result<Self, AccelError> {
         Ok(match kind {
             AccelKind::Brute => Accelerator::Brute(Brute::new(bounded)),
             AccelKind::Bvh(c) => {
@@ -170,11 +197,11 @@ impl Accelerator {
             AccelKind::Bvh8 => Accelerator::Bvh8(Bvh8::build(prims, bounded, BuildOptions::wide())),
             #[cfg(feature = "embree")]
             AccelKind::Embree(c) => Accelerator::Embree(
-                EmbreeAccel::build(prims, &bounded, c).map_err(|e| e.to_string())?,
+                EmbreeAccel::build(prims, &bounded, c).map_err(AccelError::Embree)?,
             ),
             #[cfg(feature = "obvhs")]
             AccelKind::Obvhs => {
-                Accelerator::Obvhs(ObvhsAccel::build(prims, &bounded).map_err(|e| e.to_string())?)
+                Accelerator::Obvhs(ObvhsAccel::build(prims, &bounded).map_err(AccelError::Obvhs)?)
             }
         })
     }

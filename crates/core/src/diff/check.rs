@@ -45,10 +45,7 @@ pub struct Renderer {
 impl Renderer {
     /// The image of `scene`.
     fn image(&self, scene: &Scene) -> Result<LinearImage, DiffError> {
-        let (film, _) = self
-            .integrator
-            .render::<NoStats>(scene, self.threads)
-            .map_err(DiffError::Render)?;
+        let (film, _) = self.integrator.render::<NoStats>(scene, self.threads)?;
         Ok(film.image())
     }
 }

@@ -56,7 +56,8 @@ pub use render::{check_supported, render_gradients, GradientRender, Gradients};
 pub use view::DualScene;
 
 use crate::camera::CameraError;
-use crate::io::scene_file::{Overrides, SceneSource};
+use crate::integrator::RenderError;
+use crate::io::scene_file::{Overrides, RewriteError, SceneSource};
 use crate::io::InputError;
 use crate::scene::param::ParamError;
 use crate::scene::Scene;
@@ -93,8 +94,12 @@ pub enum DiffError {
     #[error("{0}")]
     Step(String),
     /// A render that failed (a flood-fill cache that cannot be built).
-    #[error("{0}")]
-    Render(String),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    /// The scene file's text could not be rewritten with an iterate's
+    /// values.
+    #[error(transparent)]
+    Rewrite(#[from] RewriteError),
     /// An optimisation that cannot go on (a target of the wrong size, a
     /// scene the iterate leaves invalid, results that cannot be written).
     #[error("{0}")]

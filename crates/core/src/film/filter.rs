@@ -13,6 +13,7 @@
 //! the weighted mean Σ w·L / Σ w over every sample within the radius, so the
 //! filters need not be normalised and a constant image stays constant.
 
+use crate::error::ParseError;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -74,11 +75,15 @@ impl Filter {
     }
 
     /// Parse the CLI form: `box`, `tent` or `mitchell`.
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, ParseError> {
         Self::ALL
             .into_iter()
             .find(|f| f.name() == s)
-            .ok_or_else(|| format!("unknown filter `{s}` (expected `box`, `tent` or `mitchell`)"))
+            .ok_or_else(|| ParseError::Unknown {
+                what: "filter",
+                given: s.to_string(),
+                expected: "`box`, `tent` or `mitchell`".into(),
+            })
     }
 }
 
@@ -141,6 +146,9 @@ mod tests {
         for f in Filter::ALL {
             assert_eq!(Filter::parse(f.name()), Ok(f));
         }
-        assert!(Filter::parse("gauss").unwrap_err().contains("mitchell"));
+        assert!(Filter::parse("gauss")
+            .unwrap_err()
+            .to_string()
+            .contains("mitchell"));
     }
 }

@@ -63,6 +63,8 @@
 //! point becomes Le/(1 − a^γ)^{1/γ}, not Le/(1 − a).
 
 use super::voxel::{VoxelGrid, VoxelKind};
+use super::GiError;
+use crate::error::RangeError;
 use crate::lighting;
 use crate::math::{orthonormal_basis, Color, Vec3};
 use crate::scene::Scene;
@@ -155,21 +157,19 @@ impl FloodFillConfig {
     }
 
     /// Check ranges; the message names the field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), RangeError> {
         if !(self.alpha > 0.0 && self.alpha.is_finite()) {
-            return Err(format!(
-                "`alpha` must be positive and finite, got {}",
-                self.alpha
-            ));
+            return Err(RangeError::new("alpha", "positive and finite", self.alpha));
         }
         if self.max_irradiance.is_nan() || self.max_irradiance <= 0.0 {
-            return Err(format!(
-                "`max_irradiance` must be positive, got {}",
-                self.max_irradiance
+            return Err(RangeError::new(
+                "max_irradiance",
+                "positive",
+                self.max_irradiance,
             ));
         }
         if self.steps_per_frame == 0 {
-            return Err("`steps_per_frame` must be at least 1".into());
+            return Err(RangeError::new("steps_per_frame", "at least 1", 0));
         }
         Ok(())
     }
@@ -266,7 +266,7 @@ impl FloodFill {
         grid: &VoxelGrid,
         config: FloodFillConfig,
         direct: impl Fn(Vec3, Vec3) -> Color,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, GiError> {
         config.validate()?;
         let dims = grid.dims();
         let pdims = [dims[0] + 2, dims[1] + 2, dims[2] + 2];
@@ -364,7 +364,7 @@ impl FloodFill {
         spec: &super::voxel::GridSpec,
         config: FloodFillConfig,
         light_samples: u32,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, GiError> {
         let grid = VoxelGrid::from_scene(scene, spec)?;
         Self::new(&grid, config, wall_light(scene, &config, light_samples))
     }

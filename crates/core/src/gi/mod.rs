@@ -7,7 +7,7 @@
 //! Typical use from an integrator:
 //!
 //! ```no_run
-//! # fn demo(scene: &raylab::scene::Scene) -> Result<(), String> {
+//! # fn demo(scene: &raylab::scene::Scene) -> Result<(), raylab::gi::GiError> {
 //! use raylab::gi::{FloodFill, FloodFillConfig, GridSpec, Lookup, Threads};
 //! use raylab::gi::DEFAULT_WALL_LIGHT_SAMPLES;
 //! let (spec, config) = (GridSpec::new(64), FloodFillConfig::default());
@@ -29,3 +29,28 @@ pub use floodfill::{
     DEFAULT_WALL_LIGHT_SAMPLES, GAMMA, S4_ALPHA,
 };
 pub use voxel::{GridSpec, VoxelGrid, VoxelKind};
+
+use crate::error::RangeError;
+
+/// Why a flood-fill cache could not be built: a grid that cannot be laid
+/// over the scene, or settings out of range.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum GiError {
+    /// A grid resolution of 0 or above [`voxel::MAX_RESOLUTION`].
+    #[error("grid resolution must be in 1..={max}, got {given}")]
+    Resolution {
+        /// The resolution asked for.
+        given: usize,
+        /// The largest accepted.
+        max: usize,
+    },
+    /// No box to lay the grid over: no bounded primitive and no box given.
+    #[error("the scene has no bounded primitive: give the grid a box")]
+    NoBounds,
+    /// A grid box of zero size.
+    #[error("the grid box has zero size")]
+    EmptyBox,
+    /// A setting of [`FloodFillConfig`] out of range.
+    #[error(transparent)]
+    Config(#[from] RangeError),
+}

@@ -35,6 +35,7 @@
 //! a non-zero emission, and then carries the mean emission of those. Every
 //! other voxel is **empty** (air).
 
+use super::GiError;
 use crate::material::Material;
 use crate::math::Aabb;
 use crate::math::{Color, Vec3};
@@ -124,21 +125,21 @@ impl VoxelGrid {
     /// Voxelise `scene` (see the module docs for what counts as opaque).
     /// Fails when the resolution is 0 or above [`MAX_RESOLUTION`], or when
     /// there is no box (no bounded primitive and no `spec.bounds`).
-    pub fn from_scene(scene: &Scene, spec: &GridSpec) -> Result<Self, String> {
+    pub fn from_scene(scene: &Scene, spec: &GridSpec) -> Result<Self, GiError> {
         if spec.resolution == 0 || spec.resolution > MAX_RESOLUTION {
-            return Err(format!(
-                "grid resolution must be in 1..={MAX_RESOLUTION}, got {}",
-                spec.resolution
-            ));
+            return Err(GiError::Resolution {
+                given: spec.resolution,
+                max: MAX_RESOLUTION,
+            });
         }
         let b = spec.bounds.unwrap_or_else(|| scene.bounds());
         if b.is_empty() || !b.min.is_finite() || !b.max.is_finite() {
-            return Err("the scene has no bounded primitive: give the grid a box".into());
+            return Err(GiError::NoBounds);
         }
         let ext = b.extent();
         let longest = ext.max_element();
         if longest <= 0.0 {
-            return Err("the grid box has zero size".into());
+            return Err(GiError::EmptyBox);
         }
         let voxel_size = longest / spec.resolution as f32;
         let n = |e: f32| ((e / voxel_size).ceil() as usize).clamp(1, spec.resolution);

@@ -35,10 +35,11 @@
 
 use super::path::{PathEnd, PathTracer};
 use super::{Integrator, SampleContext};
+use crate::error::ParseError;
 use crate::film::Film;
 use crate::gi::{
-    wall_light, Averaging, FloodFill, FloodFillConfig, GridSpec, Lookup, Threads, VoxelGrid,
-    DEFAULT_WALL_LIGHT_SAMPLES,
+    wall_light, Averaging, FloodFill, FloodFillConfig, GiError, GridSpec, Lookup, Threads,
+    VoxelGrid, DEFAULT_WALL_LIGHT_SAMPLES,
 };
 use crate::math::{Color, Ray, RayR};
 use crate::scene::Scene;
@@ -84,17 +85,22 @@ impl Default for FloodFillSettings {
     }
 }
 
+/// The keys of `floodfill:key=value,…`, for error messages.
+const OPTION_KEYS: &str = "res, alpha, avg, bounce, lookup, warm, steps, max, light; or `s4`";
+
 impl FloodFillSettings {
     /// Parse the part after `floodfill` (empty, or `:key=value,…`, or `:s4`).
-    pub fn parse(rest: &str) -> Result<Self, String> {
+    pub fn parse(rest: &str) -> Result<Self, ParseError> {
         let mut s = Self::default();
         let Some(list) = rest.strip_prefix(':') else {
             return if rest.is_empty() {
                 Ok(s)
             } else {
-                Err(format!(
-                    "unknown integrator `floodfill{rest}` (expected `floodfill[:key=value,…]`)"
-                ))
+                Err(ParseError::Unknown {
+                    what: "integrator",
+                    given: format!("floodfill{rest}"),
+                    expected: "`floodfill[:key=value,…]`".into(),
+                })
             };
         };
         for item in list.split(',') {
@@ -105,41 +111,48 @@ impl FloodFillSettings {
                 };
                 continue;
             }
-            let (key, value) = item.split_once('=').ok_or_else(|| {
-                format!("floodfill option `{item}` is not `key=value` (keys: res, alpha, avg, bounce, lookup, warm, steps, max, light; or `s4`)")
-            })?;
-            let num = |lo: f64, hi: f64| -> Result<f64, String> {
+            let (key, value) = item
+                .split_once('=')
+                .ok_or_else(|| ParseError::NotKeyValue {
+                    what: "floodfill option",
+                    item: item.to_string(),
+                    keys: OPTION_KEYS,
+                })?;
+            let bad = |expected: String| ParseError::Value {
+                what: format!("floodfill `{key}`"),
+                expected,
+                given: value.to_string(),
+            };
+            let num = |lo: f64, hi: f64| -> Result<f64, ParseError> {
                 match value.parse::<f64>() {
                     Ok(v) if v >= lo && v <= hi => Ok(v),
-                    _ => Err(format!(
-                        "floodfill `{key}` must be a number in [{lo}, {hi}], got `{value}`"
-                    )),
+                    _ => Err(bad(format!("a number in [{lo}, {hi}]"))),
                 }
             };
-            let int = |lo: u32, hi: u32| -> Result<u32, String> {
+            let int = |lo: u32, hi: u32| -> Result<u32, ParseError> {
                 match value.parse::<u32>() {
                     Ok(v) if (lo..=hi).contains(&v) => Ok(v),
-                    _ => Err(format!(
-                        "floodfill `{key}` must be an integer in {lo}..={hi}, got `{value}`"
-                    )),
+                    _ => Err(bad(format!("an integer in {lo}..={hi}"))),
                 }
             };
-            let choice = |options: &[&str]| -> Result<usize, String> {
-                options.iter().position(|o| *o == value).ok_or_else(|| {
-                    format!(
-                        "floodfill `{key}` must be one of {}, got `{value}`",
-                        options.join(", ")
-                    )
-                })
+            let choice = |options: &[&str]| -> Result<usize, ParseError> {
+                options
+                    .iter()
+                    .position(|o| *o == value)
+                    .ok_or_else(|| bad(format!("one of {}", options.join(", "))))
             };
             match key {
                 "res" => s.resolution = int(2, crate::gi::voxel::MAX_RESOLUTION as u32)? as usize,
                 "alpha" => s.config.alpha = num(1e-6, 1e6)? as f32,
                 "avg" => {
-                    s.config.averaging = [Averaging::Linear, Averaging::Gamma][choice(&["linear", "gamma"])?]
+                    s.config.averaging =
+                        [Averaging::Linear, Averaging::Gamma][choice(&["linear", "gamma"])?]
                 }
                 "bounce" => s.config.surface_bounce = choice(&["off", "on"])? == 1,
-                "lookup" => s.lookup = [Lookup::Hemisphere, Lookup::Trilinear][choice(&["hemisphere", "trilinear"])?],
+                "lookup" => {
+                    s.lookup = [Lookup::Hemisphere, Lookup::Trilinear]
+                        [choice(&["hemisphere", "trilinear"])?]
+                }
                 "warm" => {
                     s.warm = if value == "converge" {
                         Warm::Converge
@@ -151,13 +164,18 @@ impl FloodFillSettings {
                 "max" => s.config.max_irradiance = num(1e-9, f64::from(f32::MAX))? as f32,
                 "light" => s.light_samples = int(1, 1 << 16)?,
                 _ => {
-                    return Err(format!(
-                        "unknown floodfill option `{key}` (keys: res, alpha, avg, bounce, lookup, warm, steps, max, light; or `s4`)"
-                    ))
+                    return Err(ParseError::UnknownKey {
+                        what: "floodfill option",
+                        key: key.to_string(),
+                        keys: OPTION_KEYS,
+                    })
                 }
             }
         }
-        s.config.validate().map_err(|e| format!("floodfill: {e}"))?;
+        s.config.validate().map_err(|error| ParseError::Settings {
+            what: "floodfill",
+            error,
+        })?;
         Ok(s)
     }
 
@@ -217,7 +235,7 @@ impl PathEnd for CacheEnd<'_> {
 
 impl FloodFillIntegrator {
     /// Voxelise `scene`, set up the cache's sources and warm it up.
-    pub fn build(scene: &Scene, settings: FloodFillSettings) -> Result<Self, String> {
+    pub fn build(scene: &Scene, settings: FloodFillSettings) -> Result<Self, GiError> {
         let start = Instant::now();
         let grid = VoxelGrid::from_scene(scene, &GridSpec::new(settings.resolution))?;
         let direct = wall_light(scene, &settings.config, settings.light_samples);

@@ -22,7 +22,9 @@ pub use floodfill::{FloodFillIntegrator, FloodFillSettings};
 pub use path::PathTracer;
 pub use whitted::Whitted;
 
+use crate::error::ParseError;
 use crate::film::{Film, FilmSample, Filter, PixelStats};
+use crate::gi::GiError;
 use crate::math::{Color, Ray, RayR, Real, V3};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, View};
@@ -78,12 +80,22 @@ impl Prepared {
         &mut self,
         scene: &Scene,
         threads: Option<usize>,
-    ) -> Result<(Film, S), String> {
+    ) -> Result<(Film, S), RenderError> {
         match self {
             Prepared::Plain(kind) => kind.render(scene, threads),
             Prepared::FloodFill(ff) => Ok(ff.frame(scene, threads)),
         }
     }
+}
+
+/// Why a render could not start: only flood fill can fail, when its cache
+/// cannot be built over the scene.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RenderError {
+    /// The flood-fill cache (its voxel grid, its settings) could not be
+    /// built.
+    #[error(transparent)]
+    FloodFillCache(#[from] GiError),
 }
 
 /// The most bounces `path:K` accepts (a typo guard; Russian roulette ends
@@ -92,7 +104,7 @@ pub const MAX_BOUNCES: u32 = 1024;
 
 impl IntegratorKind {
     /// Parse `whitted`, `direct` or `path:K` (K in 0..=[`MAX_BOUNCES`]).
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, ParseError> {
         if let Some(rest) = s.strip_prefix("floodfill") {
             return FloodFillSettings::parse(rest).map(Self::FloodFill);
         }
@@ -101,14 +113,19 @@ impl IntegratorKind {
             None if s == "direct" => Ok(Self::Direct),
             Some(("path", k)) => match k.parse::<u32>() {
                 Ok(k) if k <= MAX_BOUNCES => Ok(Self::Path(PathTracer::new(k))),
-                _ => Err(format!(
-                    "path bounce count must be an integer in 0..={MAX_BOUNCES}, got `{k}`"
-                )),
+                _ => Err(ParseError::Value {
+                    what: "path bounce count".into(),
+                    expected: format!("an integer in 0..={MAX_BOUNCES}"),
+                    given: k.to_string(),
+                }),
             },
-            _ => Err(format!(
-                "unknown integrator `{s}` (expected `whitted`, `direct`, `path:K`, \
-                 K = bounces after the camera hit, e.g. `path:4`, or `floodfill[:key=value,…]`)"
-            )),
+            _ => Err(ParseError::Unknown {
+                what: "integrator",
+                given: s.to_string(),
+                expected: "`whitted`, `direct`, `path:K`, K = bounces after the camera hit, \
+                           e.g. `path:4`, or `floodfill[:key=value,…]`"
+                    .into(),
+            }),
         }
     }
 
@@ -124,7 +141,7 @@ impl IntegratorKind {
 
     /// Get ready to render frames of `scene` (builds the flood-fill cache;
     /// fails only when the scene cannot be voxelised).
-    pub fn prepare(&self, scene: &Scene) -> Result<Prepared, String> {
+    pub fn prepare(&self, scene: &Scene) -> Result<Prepared, RenderError> {
         Ok(match self {
             Self::FloodFill(f) => {
                 Prepared::FloodFill(Box::new(FloodFillIntegrator::build(scene, *f)?))
@@ -180,7 +197,7 @@ impl IntegratorKind {
     /// Flood fill builds and warms its cache first (see [`Self::prepare`]
     /// to build it once for many frames); that alone can fail, when the
     /// scene cannot be voxelised.
-    pub fn render<S>(&self, scene: &Scene, threads: Option<usize>) -> Result<(Film, S), String>
+    pub fn render<S>(&self, scene: &Scene, threads: Option<usize>) -> Result<(Film, S), RenderError>
     where
         S: RenderStats,
     {
@@ -199,8 +216,8 @@ impl IntegratorKind {
 }
 
 impl std::str::FromStr for IntegratorKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = ParseError;
+    fn from_str(s: &str) -> Result<Self, ParseError> {
         Self::parse(s)
     }
 }

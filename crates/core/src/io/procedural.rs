@@ -40,6 +40,23 @@ pub enum Procedural {
 /// primitives): larger requests are refused rather than exhausting memory.
 pub const MAX_TRIANGLES: u64 = 40_000_000;
 
+/// Why a procedural mesh's parameters are unusable.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ProceduralError {
+    /// More triangles than [`MAX_TRIANGLES`].
+    #[error("{count} triangles requested; the limit is {MAX_TRIANGLES}")]
+    TooManyTriangles {
+        /// The triangles the parameters ask for.
+        count: u64,
+    },
+    /// A torus knot with a zero winding or too few segments or sides.
+    #[error("torus_knot needs p, q ≥ 1 and segments, sides ≥ 3")]
+    TorusKnot,
+    /// A terrain of no cells.
+    #[error("terrain needs n ≥ 1")]
+    Terrain,
+}
+
 impl Procedural {
     /// Number of triangles this mesh will have.
     pub fn triangle_count(&self) -> u64 {
@@ -53,12 +70,10 @@ impl Procedural {
     }
 
     /// Generate the mesh, or explain why the parameters are unusable.
-    pub fn generate(&self) -> Result<MeshData, String> {
+    pub fn generate(&self) -> Result<MeshData, ProceduralError> {
         let count = self.triangle_count();
         if count > MAX_TRIANGLES {
-            return Err(format!(
-                "{count} triangles requested; the limit is {MAX_TRIANGLES}"
-            ));
+            return Err(ProceduralError::TooManyTriangles { count });
         }
         match *self {
             Procedural::Icosphere { level } => Ok(icosphere(level)),
@@ -69,13 +84,13 @@ impl Procedural {
                 sides,
             } => {
                 if p == 0 || q == 0 || segments < 3 || sides < 3 {
-                    return Err("torus_knot needs p, q ≥ 1 and segments, sides ≥ 3".into());
+                    return Err(ProceduralError::TorusKnot);
                 }
                 Ok(torus_knot(p, q, segments, sides))
             }
             Procedural::Terrain { n, seed } => {
                 if n == 0 {
-                    return Err("terrain needs n ≥ 1".into());
+                    return Err(ProceduralError::Terrain);
                 }
                 Ok(terrain(n, seed))
             }

@@ -25,7 +25,7 @@ use crate::scene::description::{
     EllipsoidDesc, LightDesc, MeshDesc, NamedMaterial, Normals, PlaneDesc, Scale, SceneDescription,
     SphereDesc, TriangleDesc,
 };
-use crate::scene::param::{Entity, Shape, Target};
+use crate::scene::param::{Entity, Target, ValueShape};
 use crate::scene::{RenderSettings, Scene, SceneError};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -226,6 +226,25 @@ impl Overrides {
     }
 }
 
+/// Why a scene file's text could not be rewritten with new values
+/// ([`SceneSource::text_with`]).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum RewriteError {
+    /// The file's text is not TOML (it changed since it was read).
+    #[error("{0}")]
+    Parse(toml::de::Error),
+    /// A mesh's vertices, which live in the mesh file.
+    #[error("a mesh's vertices live in its mesh file, not in the scene file")]
+    MeshVertices,
+    /// A table the value belongs in that the file lacks (`[camera]`,
+    /// `sphere[2]`).
+    #[error("the scene file has no {0}")]
+    Missing(String),
+    /// The rewritten table could not be written as TOML.
+    #[error("{0}")]
+    Serialise(toml::ser::Error),
+}
+
 /// A scene file read: its path, its text, its description, and where each
 /// entity is in the text.
 #[derive(Clone, Debug)]
@@ -306,8 +325,12 @@ impl SceneSource {
     /// description of this file with new values): each field written
     /// whole, other fields and defaults as they are written (defaults of
     /// the fields written are written out). Comments are not kept.
-    pub fn text_with(&self, desc: &SceneDescription, targets: &[Target]) -> Result<String, String> {
-        let mut table: toml::Table = toml::from_str(&self.text).map_err(|e| e.to_string())?;
+    pub fn text_with(
+        &self,
+        desc: &SceneDescription,
+        targets: &[Target],
+    ) -> Result<String, RewriteError> {
+        let mut table: toml::Table = toml::from_str(&self.text).map_err(RewriteError::Parse)?;
         let mut done: Vec<Target> = Vec::new();
         for &t in targets {
             if done.contains(&t) {
@@ -317,13 +340,11 @@ impl SceneSource {
             let values = desc.values(t);
             let num = |v: f32| toml::Value::Float(f64::from(v));
             let new = match desc.shape_of(t) {
-                Shape::Scalar => num(values[0]),
-                Shape::Vector => toml::Value::Array(values.iter().map(|&v| num(v)).collect()),
-                Shape::Points => {
+                ValueShape::Scalar => num(values[0]),
+                ValueShape::Vector => toml::Value::Array(values.iter().map(|&v| num(v)).collect()),
+                ValueShape::Points => {
                     if matches!(t, Target::Mesh(..)) {
-                        return Err(
-                            "a mesh's vertices live in its mesh file, not in the scene file".into(),
-                        );
+                        return Err(RewriteError::MeshVertices);
                     }
                     toml::Value::Array(
                         values
@@ -336,7 +357,7 @@ impl SceneSource {
             self.section(&mut table, t.entity())?
                 .insert(t.key().to_string(), new);
         }
-        toml::to_string(&table).map_err(|e| e.to_string())
+        toml::to_string(&table).map_err(RewriteError::Serialise)
     }
 
     /// The TOML table of `entity` in the file's document.
@@ -344,8 +365,8 @@ impl SceneSource {
         &self,
         table: &'t mut toml::Table,
         entity: Entity,
-    ) -> Result<&'t mut toml::Table, String> {
-        let missing = |what: &str| format!("the scene file has no {what}");
+    ) -> Result<&'t mut toml::Table, RewriteError> {
+        let missing = |what: &str| RewriteError::Missing(what.to_string());
         let array = |key: &str, i: u32, table: &'t mut toml::Table| {
             table
                 .get_mut(key)
@@ -500,13 +521,15 @@ fn parse_description(text: &str, path: &Path) -> Result<SceneSource, InputError>
     }
 
     let r = &file.render;
-    let sampler = Sampler::parse(r.sampler.get_ref()).map_err(|msg| at(r.sampler.span(), msg))?;
-    let filter = Filter::parse(r.filter.get_ref()).map_err(|msg| at(r.filter.span(), msg))?;
+    let sampler =
+        Sampler::parse(r.sampler.get_ref()).map_err(|e| at(r.sampler.span(), e.to_string()))?;
+    let filter =
+        Filter::parse(r.filter.get_ref()).map_err(|e| at(r.filter.span(), e.to_string()))?;
     let accel = r
         .accel
         .get_ref()
-        .parse()
-        .map_err(|msg| at(r.accel.span(), msg))?;
+        .parse::<AccelKind>()
+        .map_err(|e| at(r.accel.span(), e.to_string()))?;
     let c = &file.camera;
     let description = SceneDescription {
         width: file.image.width,

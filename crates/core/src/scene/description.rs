@@ -10,7 +10,6 @@
 //! planes, triangles, then meshes (as the scene's `objects` are);
 //! materials in name order.
 
-use super::param::Entity;
 use super::RenderSettings;
 use crate::accel::AccelKind;
 pub use crate::camera::CameraDesc;
@@ -19,6 +18,7 @@ use crate::light::Falloff;
 use crate::material::Material;
 use crate::math::{Color, Vec3};
 use crate::shape::MeshData;
+use std::fmt;
 use std::sync::Arc;
 
 /// A parsed, checked scene file.
@@ -289,7 +289,9 @@ impl MeshDesc {
             if !(size > 0.0 && size.is_finite()) {
                 return Err(format!("`fit` must be positive, got {size}"));
             }
-            fit_box(&self.data.positions)?;
+            if fit_box(&self.data.positions).is_none() {
+                return Err("cannot `fit` a mesh whose bounding box is a point".into());
+            }
         }
         if self.data.positions.iter().any(|p| !p.is_finite()) {
             return Err("`vertices` must be finite".into());
@@ -299,15 +301,48 @@ impl MeshDesc {
 }
 
 /// What `fit` needs of a mesh's own positions: the largest extent of their
-/// bounding box and its centre.
-pub fn fit_box(positions: &[Vec3]) -> Result<(f32, Vec3), String> {
+/// bounding box and its centre; `None` when the box is a point (or
+/// empty), which cannot be fitted.
+pub(crate) fn fit_box(positions: &[Vec3]) -> Option<(f32, Vec3)> {
     let (lo, hi) = positions.iter().fold(
         (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
         |(lo, hi), &p| (lo.min(p), hi.max(p)),
     );
     let largest = (hi - lo).max_element();
     if largest.is_nan() || largest <= 0.0 {
-        return Err("cannot `fit` a mesh whose bounding box is a point".into());
+        return None;
     }
-    Ok((largest, 0.5 * (lo + hi)))
+    Some((largest, 0.5 * (lo + hi)))
+}
+
+/// A part of the scene: what a parameter belongs to, and what a value
+/// out of range is reported against.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Entity {
+    Camera,
+    Render,
+    /// Index in name order (the scene's material index).
+    Material(u32),
+    Sphere(u32),
+    Ellipsoid(u32),
+    Plane(u32),
+    Triangle(u32),
+    Mesh(u32),
+    Light(u32),
+}
+
+impl fmt::Display for Entity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Entity::Camera => f.write_str("[camera]"),
+            Entity::Render => f.write_str("[render]"),
+            Entity::Material(i) => write!(f, "material {i}"),
+            Entity::Sphere(i) => write!(f, "sphere[{i}]"),
+            Entity::Ellipsoid(i) => write!(f, "ellipsoid[{i}]"),
+            Entity::Plane(i) => write!(f, "plane[{i}]"),
+            Entity::Triangle(i) => write!(f, "triangle[{i}]"),
+            Entity::Mesh(i) => write!(f, "mesh[{i}]"),
+            Entity::Light(i) => write!(f, "light[{i}]"),
+        }
+    }
 }

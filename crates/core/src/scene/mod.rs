@@ -12,7 +12,7 @@ pub mod build;
 pub mod description;
 pub mod param;
 
-use crate::accel::{Accel, AccelKind, Accelerator};
+use crate::accel::{Accel, AccelError, AccelKind, Accelerator};
 use crate::camera::{Camera, CameraError};
 use crate::film::memory::MemoryError;
 use crate::film::Filter;
@@ -188,7 +188,7 @@ pub enum SceneError {
     /// An accelerator that could not be built (Embree's or obvhs's
     /// message).
     #[error("accelerator: {0}")]
-    Accel(String),
+    Accel(AccelError),
 }
 
 /// Not `#[from]`: the variant's message already holds the camera's, so
@@ -304,7 +304,7 @@ impl Scene {
     }
 
     /// Rebuild the accelerator as another kind.
-    pub fn set_accel(&mut self, kind: AccelKind) -> Result<(), String> {
+    pub fn set_accel(&mut self, kind: AccelKind) -> Result<(), AccelError> {
         let bounded = (0..self.prims.len() as u32)
             .filter(|&i| self.prims[i as usize].bounds().is_some())
             .collect();

@@ -14,6 +14,7 @@
 //! with [`to_srgb8`], so ꟻLIP sees what an sRGB display would show, and
 //! differences above 1 (in HDR renders) are invisible to it.
 
+use crate::Error;
 use ndarray::Array2;
 use raylab::io::image::{read_image, to_srgb8, LinearImage};
 use raylab::io::write_atomically;
@@ -263,26 +264,39 @@ pub fn flip_stats(map: &Array2<f32>) -> FlipStats {
 
 /// Write a ꟻLIP error map as an 8-bit PNG coloured with ꟻLIP's magma
 /// palette (black = no error, light yellow = 1), atomically.
-pub fn write_flip_map(path: &Path, map: &Array2<f32>) -> anyhow::Result<()> {
-    let is_png = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-    anyhow::ensure!(
-        is_png,
-        "{}: the error map is written as PNG; use a .png name",
-        path.display()
-    );
+pub fn write_flip_map(path: &Path, map: &Array2<f32>) -> Result<(), Error> {
+    check_png_name(path)?;
     let (h, w) = map.dim();
     let data: Vec<f32> = map.iter().copied().collect();
     let values = nv_flip::FlipImageFloat::with_data(w as u32, h as u32, &data);
     let coloured = values.apply_color_lut(&nv_flip::magma_lut());
     write_atomically(path, |tmp| {
         let buf = image::RgbImage::from_raw(w as u32, h as u32, coloured.to_vec())
-            .ok_or_else(|| anyhow::anyhow!("error map buffer size mismatch"))?;
+            .ok_or_else(|| Error::Internal("error map buffer size mismatch".into()))?;
         buf.save_with_format(tmp, image::ImageFormat::Png)
-            .map_err(|e| anyhow::anyhow!("{}: cannot write error map: {e}", path.display()))
+            .map_err(|error| Error::Encode {
+                path: path.to_path_buf(),
+                what: "error map",
+                error,
+            })
     })
+}
+
+/// The ꟻLIP error map is written as PNG: an [`Error::Argument`] for any
+/// other name.
+fn check_png_name(path: &Path) -> Result<(), Error> {
+    let is_png = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if is_png {
+        Ok(())
+    } else {
+        Err(Error::Argument(format!(
+            "{}: the error map is written as PNG; use a .png name",
+            path.display()
+        )))
+    }
 }
 
 /// All metrics of `test` against `reference`. Fails when the sizes differ
@@ -314,27 +328,17 @@ pub fn diff_files(
     test: &Path,
     reference: &Path,
     error_map: Option<&Path>,
-) -> anyhow::Result<ImageMetrics> {
+) -> Result<ImageMetrics, Error> {
     if let Some(out) = error_map {
         // Checked before the work so a wrong name fails fast.
-        let is_png = out
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-        anyhow::ensure!(
-            is_png,
-            "{}: the error map is written as PNG; use a .png name",
-            out.display()
-        );
+        check_png_name(out)?;
     }
     let a = read_image(test)?;
     let b = read_image(reference)?;
-    let map = flip_error_map(&a, &b).map_err(|e| {
-        anyhow::anyhow!(
-            "cannot compare {} with {}: {e}",
-            test.display(),
-            reference.display()
-        )
+    let map = flip_error_map(&a, &b).map_err(|error| Error::Compare {
+        test: Some(test.to_path_buf()),
+        reference: reference.to_path_buf(),
+        error,
     })?;
     let metrics = metrics_with_map(&a, &b, &map);
     if let Some(out) = error_map {

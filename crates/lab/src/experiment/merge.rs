@@ -17,11 +17,12 @@
 //! the files the studies wrote beside the tables (images, curves), and
 //! draws the manifest's figures.
 
-use super::data::{RowWriter, Table, DATA_FILE};
+use super::data::{ReadTable, RowWriter, Table, DATA_FILE};
 use super::meta::{Meta, ShardRecord, META_FILE};
 use super::shard::{deal, host_name, manifest_hash, Shard};
 use super::{draw_figures, RatioSummary};
-use anyhow::{bail, Context};
+use crate::{Error, FileOp};
+use raylab::io::InputError;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -50,14 +51,23 @@ pub struct Merged {
     pub runs_total: usize,
     /// Rows written.
     pub rows: usize,
-    /// The runs no shard had: shard and description.
-    pub missing: Vec<(Shard, String)>,
+    /// The runs no shard had.
+    pub missing: Vec<MissingRun>,
     /// Stems of the figures written.
     pub figures: Vec<String>,
     /// Means of the ratio figures beside their references.
     pub summary: Vec<RatioSummary>,
     /// Seconds the merge took.
     pub wall_time_s: f64,
+}
+
+/// A run of the plan that no shard has.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MissingRun {
+    /// The shard it was dealt to.
+    pub shard: Shard,
+    /// The run, described by its parameters that vary.
+    pub run: String,
 }
 
 /// One shard folder as read.
@@ -69,7 +79,7 @@ struct ShardDir {
 }
 
 /// Merge the shards into `opts.out_dir`.
-pub fn merge_shards(opts: &MergeOptions) -> anyhow::Result<Merged> {
+pub fn merge_shards(opts: &MergeOptions) -> Result<Merged, Error> {
     let clock = Instant::now();
     let shards = read_shards(opts)?;
     let first = &shards[0];
@@ -89,56 +99,71 @@ pub fn merge_shards(opts: &MergeOptions) -> anyhow::Result<Merged> {
     // Every row once, each in the shard it was dealt to.
     let mut rows: Vec<Option<(&Vec<String>, &Path)>> = vec![None; plan.runs.len()];
     for s in &shards {
+        let data = s.dir.join(DATA_FILE);
         if s.table.columns != plan.columns {
-            bail!(
-                "{}: its columns differ from the manifest's plan\n  file:     {}\n  manifest: {}",
-                s.dir.join(DATA_FILE).display(),
-                s.table.columns.join(","),
-                plan.columns.join(",")
-            );
+            return Err(InputError::file(
+                &data,
+                format!(
+                    "its columns differ from the manifest's plan\n  file:     {}\n  manifest: {}",
+                    s.table.columns.join(","),
+                    plan.columns.join(",")
+                ),
+            )
+            .into());
         }
         for (i, row) in s.table.rows.iter().enumerate() {
             let line = i + 2;
             let Some(&p) = position.get(&row[..key_len]) else {
-                bail!(
-                    "{}:{line}: this row is not a run of the manifest ({})",
-                    s.dir.join(DATA_FILE).display(),
-                    row[..key_len].join(",")
-                );
+                return Err(InputError::line(
+                    &data,
+                    line,
+                    format!(
+                        "this row is not a run of the manifest ({})",
+                        row[..key_len].join(",")
+                    ),
+                )
+                .into());
             };
             let owner = dealt[p];
             if owner != s.shard {
-                bail!(
-                    "{}:{line}: run `{}` belongs to shard {owner}, not to this shard {}",
-                    s.dir.join(DATA_FILE).display(),
-                    plan.runs[p].describe(&plan.varying),
-                    s.shard
-                );
+                return Err(InputError::line(
+                    &data,
+                    line,
+                    format!(
+                        "run `{}` belongs to shard {owner}, not to this shard {}",
+                        plan.runs[p].describe(&plan.varying),
+                        s.shard
+                    ),
+                )
+                .into());
             }
             if let Some((_, other)) = rows[p] {
-                bail!(
+                return Err(Error::Merge(format!(
                     "run `{}` is in {} and again in {}",
                     plan.runs[p].describe(&plan.varying),
                     other.display(),
                     s.dir.display()
-                );
+                )));
             }
             rows[p] = Some((row, &s.dir));
         }
     }
-    let missing: Vec<(Shard, String)> = rows
+    let missing: Vec<MissingRun> = rows
         .iter()
         .enumerate()
         .filter(|(_, r)| r.is_none())
-        .map(|(p, _)| (dealt[p], plan.runs[p].describe(&plan.varying)))
+        .map(|(p, _)| MissingRun {
+            shard: dealt[p],
+            run: plan.runs[p].describe(&plan.varying),
+        })
         .collect();
     if !missing.is_empty() && !opts.allow_missing {
         let shown: Vec<String> = missing
             .iter()
             .take(20)
-            .map(|(s, what)| format!("shard {s}: {what}"))
+            .map(|m| format!("shard {}: {}", m.shard, m.run))
             .collect();
-        bail!(
+        return Err(Error::Merge(format!(
             "{} of {} runs are in no shard (--allow-missing merges and draws what exists):\n  {}{}",
             missing.len(),
             plan.runs.len(),
@@ -148,15 +173,11 @@ pub fn merge_shards(opts: &MergeOptions) -> anyhow::Result<Merged> {
             } else {
                 String::new()
             }
-        );
+        )));
     }
 
-    std::fs::create_dir_all(&opts.out_dir).with_context(|| {
-        format!(
-            "{}: cannot create the output folder",
-            opts.out_dir.display()
-        )
-    })?;
+    std::fs::create_dir_all(&opts.out_dir)
+        .map_err(|e| Error::io(&opts.out_dir, FileOp::CreateOutputFolder, e))?;
     for s in &shards {
         copy_study_files(&s.dir, &opts.out_dir, Path::new(""))?;
     }
@@ -169,16 +190,15 @@ pub fn merge_shards(opts: &MergeOptions) -> anyhow::Result<Merged> {
 
     let records: Vec<ShardRecord> = shards.iter().map(record).collect();
     let mut meta = merged_meta(first, &records, &plan, &missing);
-    let (table, _) = Table::read(&data_path)?;
+    let table = Table::read(&data_path)?.table;
     let failures = draw_figures(&manifest, &plan, &table, &opts.out_dir, &mut meta);
     meta.complete &= failures.is_empty();
     meta.write(&opts.out_dir)?;
     if !failures.is_empty() {
-        bail!(
-            "{}: merged, but figures failed:\n  {}",
-            data_path.display(),
-            failures.join("\n  ")
-        );
+        return Err(Error::Figures {
+            what: format!("{}: merged, but figures failed", data_path.display()),
+            failures,
+        });
     }
     Ok(Merged {
         name: manifest.name.clone(),
@@ -194,44 +214,50 @@ pub fn merge_shards(opts: &MergeOptions) -> anyhow::Result<Merged> {
 }
 
 /// Read every shard folder and check that they belong together.
-fn read_shards(opts: &MergeOptions) -> anyhow::Result<Vec<ShardDir>> {
-    anyhow::ensure!(!opts.shards.is_empty(), "no shard folders to merge");
+fn read_shards(opts: &MergeOptions) -> Result<Vec<ShardDir>, Error> {
+    if opts.shards.is_empty() {
+        return Err(Error::Merge("no shard folders to merge".into()));
+    }
     let out = opts.out_dir.canonicalize().ok();
     let mut seen: HashMap<PathBuf, &Path> = HashMap::new();
     let mut shards = Vec::new();
     for dir in &opts.shards {
         let canon = dir
             .canonicalize()
-            .with_context(|| format!("{}: no such shard folder", dir.display()))?;
+            .map_err(|e| Error::io(dir, FileOp::FindShard, e))?;
         if out.as_ref() == Some(&canon) {
-            bail!(
+            return Err(Error::Merge(format!(
                 "{}: the output folder is one of the shards; merge into another folder",
                 dir.display()
-            );
+            )));
         }
         if let Some(other) = seen.insert(canon, dir) {
-            bail!(
+            return Err(Error::Merge(format!(
                 "{} and {} are the same folder: each shard is merged once",
                 other.display(),
                 dir.display()
-            );
+            )));
         }
         let meta = Meta::read(dir)?;
         let Some(shard) = meta.shard else {
-            bail!(
+            return Err(Error::Merge(format!(
                 "{}: not a shard (its meta.json has no `shard`; run the experiment with --shard I/N)",
                 dir.display()
-            );
+            )));
         };
         let expected = manifest_hash(&meta.manifest_text, meta.quick);
         if meta.manifest_hash != expected {
-            bail!(
-                "{}: its manifest_hash does not match its manifest text (edited by hand?)",
-                dir.join(META_FILE).display()
-            );
+            return Err(InputError::file(
+                dir.join(META_FILE),
+                "its manifest_hash does not match its manifest text (edited by hand?)",
+            )
+            .into());
         }
-        let (table, dropped) = Table::read(&dir.join(DATA_FILE))?;
-        if dropped {
+        let ReadTable {
+            table,
+            dropped_last_line,
+        } = Table::read(&dir.join(DATA_FILE))?;
+        if dropped_last_line {
             eprintln!(
                 "warning: {}: dropped an incomplete last line (an interrupted write)",
                 dir.join(DATA_FILE).display()
@@ -248,12 +274,12 @@ fn read_shards(opts: &MergeOptions) -> anyhow::Result<Vec<ShardDir>> {
     let mut by_index: BTreeMap<usize, &Path> = BTreeMap::new();
     for s in &shards {
         let differs = |what: &str, a: &str, b: &str| {
-            anyhow::anyhow!(
+            Error::Merge(format!(
                 "{} and {} differ in {what} ({a} vs {b}): only shards of one run of one \
                  manifest are merged",
                 first.dir.display(),
                 s.dir.display()
-            )
+            ))
         };
         if s.meta.manifest_hash != first.meta.manifest_hash {
             return Err(differs(
@@ -288,12 +314,12 @@ fn read_shards(opts: &MergeOptions) -> anyhow::Result<Vec<ShardDir>> {
             ));
         }
         if let Some(other) = by_index.insert(s.shard.index, &s.dir) {
-            bail!(
+            return Err(Error::Merge(format!(
                 "{} and {} are both shard {}: each shard is merged once",
                 other.display(),
                 s.dir.display(),
                 s.shard
-            );
+            )));
         }
     }
     shards.sort_by_key(|s| s.shard.index);
@@ -327,7 +353,7 @@ fn merged_meta(
     first: &ShardDir,
     records: &[ShardRecord],
     plan: &super::Plan,
-    missing: &[(Shard, String)],
+    missing: &[MissingRun],
 ) -> Meta {
     let mut cpus: Vec<&str> = records.iter().map(|r| r.cpu_model.as_str()).collect();
     cpus.sort_unstable();
@@ -372,30 +398,27 @@ fn merged_meta(
 /// references) from a shard folder into the merged one; the shard's own
 /// `data.csv` and `meta.json` stay behind. A file already there is kept
 /// (shards that computed the same cached reference wrote the same one).
-pub(super) fn copy_study_files(from: &Path, to: &Path, rel: &Path) -> anyhow::Result<()> {
+pub(super) fn copy_study_files(from: &Path, to: &Path, rel: &Path) -> Result<(), Error> {
     let dir = from.join(rel);
-    let entries =
-        std::fs::read_dir(&dir).with_context(|| format!("{}: cannot list", dir.display()))?;
+    let list_error = |e| Error::io(&dir, FileOp::List, e);
+    let entries = std::fs::read_dir(&dir).map_err(list_error)?;
     for entry in entries {
-        let entry = entry.with_context(|| format!("{}: cannot list", dir.display()))?;
+        let entry = entry.map_err(list_error)?;
         let name = entry.file_name();
         let rel_path = rel.join(&name);
         if rel.as_os_str().is_empty() && (name == DATA_FILE || name == META_FILE) {
             continue;
         }
-        let kind = entry.file_type()?;
+        let kind = entry.file_type().map_err(list_error)?;
         let target = to.join(&rel_path);
         if kind.is_dir() {
-            std::fs::create_dir_all(&target)
-                .with_context(|| format!("{}: cannot create", target.display()))?;
+            std::fs::create_dir_all(&target).map_err(|e| Error::io(&target, FileOp::Create, e))?;
             copy_study_files(from, to, &rel_path)?;
         } else if kind.is_file() && !target.exists() {
-            std::fs::copy(entry.path(), &target).with_context(|| {
-                format!(
-                    "cannot copy {} to {}",
-                    entry.path().display(),
-                    target.display()
-                )
+            std::fs::copy(entry.path(), &target).map_err(|error| Error::Copy {
+                from: entry.path(),
+                to: target.clone(),
+                error,
             })?;
         }
     }

@@ -9,8 +9,8 @@
 //! it ends.
 
 use super::{parse_manifest, Manifest};
-use anyhow::{bail, Context};
-use raylab::io::write_atomically;
+use crate::{Error, FileOp};
+use raylab::io::{write_atomically, InputError};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -148,33 +148,38 @@ pub struct ShardRecord {
 
 impl Meta {
     /// Read `dir/meta.json`.
-    pub fn read(dir: &Path) -> anyhow::Result<Meta> {
+    pub fn read(dir: &Path) -> Result<Meta, Error> {
         let path = dir.join(META_FILE);
-        let text = std::fs::read_to_string(&path)
-            .with_context(|| format!("{}: cannot read", path.display()))?;
-        serde_json::from_str(&text).with_context(|| {
-            format!(
-                "{}: not an experiment's meta.json (or from an older raylab)",
-                path.display()
-            )
-        })
+        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, FileOp::Read, e))?;
+        serde_json::from_str(&text).map_err(|error| Error::Meta { path, error })
     }
 
     /// Write `dir/meta.json` (pretty-printed, atomically).
-    pub fn write(&self, dir: &Path) -> anyhow::Result<()> {
+    pub fn write(&self, dir: &Path) -> Result<(), Error> {
         let path = dir.join(META_FILE);
-        let text = serde_json::to_string_pretty(self).context("serialising meta.json")?;
+        let text = serde_json::to_string_pretty(self).map_err(|error| Error::Json {
+            what: META_FILE,
+            error,
+        })?;
         write_atomically(&path, |tmp| {
-            std::fs::write(tmp, text + "\n")
-                .with_context(|| format!("{}: cannot write", path.display()))
+            std::fs::write(tmp, text + "\n").map_err(|e| Error::io(&path, FileOp::Write, e))
         })
     }
+}
+
+/// A git revision and whether the work tree had changes.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GitRevision {
+    /// The commit hash, or "unknown".
+    pub revision: String,
+    /// Whether the work tree had changes (`None`: unknown).
+    pub dirty: Option<bool>,
 }
 
 /// The git revision of the repository holding `dir`, and whether its work
 /// tree has changes; ("unknown", None) when git is missing or `dir` is not
 /// in a repository (or the repository has no commit yet).
-pub fn git_revision(dir: &Path) -> (String, Option<bool>) {
+pub fn git_revision(dir: &Path) -> GitRevision {
     let git = |args: &[&str]| {
         Command::new("git")
             .arg("-C")
@@ -186,11 +191,14 @@ pub fn git_revision(dir: &Path) -> (String, Option<bool>) {
             .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
     };
     match git(&["rev-parse", "HEAD"]) {
-        Some(rev) if !rev.is_empty() => {
-            let dirty = git(&["status", "--porcelain"]).map(|s| !s.is_empty());
-            (rev, dirty)
-        }
-        _ => ("unknown".into(), None),
+        Some(revision) if !revision.is_empty() => GitRevision {
+            revision,
+            dirty: git(&["status", "--porcelain"]).map(|s| !s.is_empty()),
+        },
+        _ => GitRevision {
+            revision: "unknown".into(),
+            dirty: None,
+        },
     }
 }
 
@@ -246,14 +254,16 @@ fn civil_from_days(z: i64) -> (i64, u32, u32) {
 impl Meta {
     /// The manifest a run's `meta.json` recorded, with `--quick` applied when
     /// the run was quick. `dir` names the folder in errors.
-    pub fn recorded_manifest(&self, dir: &Path) -> anyhow::Result<Manifest> {
+    pub fn recorded_manifest(&self, dir: &Path) -> Result<Manifest, Error> {
         let meta = self;
+        let meta_path = dir.join(META_FILE);
         if meta.manifest_text.is_empty() {
-            bail!(
-                "{}: records no manifest text (written by an older raylab); \
+            return Err(InputError::file(
+                &meta_path,
+                "records no manifest text (written by an older raylab); \
                  run the experiment again",
-                dir.join(META_FILE).display()
-            );
+            )
+            .into());
         }
         let path = meta
             .manifest
@@ -262,7 +272,7 @@ impl Meta {
             .map(PathBuf::from)
             .unwrap_or_else(|| PathBuf::from(format!("{}.toml", meta.name)));
         let manifest = parse_manifest(&meta.manifest_text, &path)
-            .with_context(|| format!("{}: its manifest text", dir.join(META_FILE).display()))?;
+            .map_err(|e| InputError::file(&meta_path, format!("its manifest text: {e}")))?;
         if meta.quick {
             Ok(manifest.with_quick()?)
         } else {

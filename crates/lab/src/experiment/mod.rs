@@ -108,7 +108,7 @@
 //! - one `FILE.png` and `FILE.svg` per `[[figure]]`, drawn from `data.csv`
 //!   after the runs, so `--resume` redraws them from every row. The mean of
 //!   each series of a ratio figure (and of its references) is returned in
-//!   the [`Report`], printed by `raylab experiment` and kept in `meta.json`.
+//!   the [`ExperimentRun`], printed by `raylab experiment` and kept in `meta.json`.
 //!
 //! # Shards and merging
 //!
@@ -165,12 +165,13 @@ pub use manifest::{load_manifest, parse_manifest, Manifest, Plan};
 pub use merge::{merge_shards, MergeOptions};
 pub use meta::RatioSummary;
 pub use redraw::{redraw, Redrawn};
-pub use shard::Shard;
+pub use shard::{Shard, ShardError};
 
-use anyhow::{bail, Context};
-use data::{RowWriter, Table, DATA_FILE};
+use crate::{Error, FileOp};
+use data::{ReadTable, RowWriter, Table, DATA_FILE};
 use indicatif::{ProgressBar, ProgressStyle};
-use meta::Meta;
+use meta::{GitRevision, Meta};
+use raylab::io::InputError;
 use std::collections::HashSet;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -179,7 +180,7 @@ use study::RunContext;
 
 /// How to run an experiment (the `raylab experiment` options).
 #[derive(Clone, Debug, Default)]
-pub struct Options {
+pub struct ExperimentOptions {
     /// Apply the manifest's `[quick]` block.
     pub quick: bool,
     /// Keep the rows of an existing `data.csv` and skip their runs.
@@ -196,9 +197,9 @@ pub struct Options {
     pub shard: Option<Shard>,
 }
 
-/// What an experiment did.
+/// What an experiment run did.
 #[derive(Clone, Debug)]
-pub struct Report {
+pub struct ExperimentRun {
     /// The experiment's name.
     pub name: String,
     /// Where `data.csv`, `meta.json` and the figures are.
@@ -222,7 +223,7 @@ pub struct Report {
 }
 
 /// Run the experiment described by the manifest at `path`.
-pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
+pub fn run_experiment(path: &Path, opts: &ExperimentOptions) -> Result<ExperimentRun, Error> {
     let clock = Instant::now();
     let started = SystemTime::now();
     let mut manifest = load_manifest(path)?;
@@ -233,7 +234,11 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
         .threads
         .or(manifest.threads)
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    anyhow::ensure!(threads >= 1, "the thread count must be at least 1");
+    if threads < 1 {
+        return Err(Error::Argument(
+            "the thread count must be at least 1".into(),
+        ));
+    }
     let plan = manifest.plan()?;
     let study = manifest.study();
     let out_dir = opts.out_dir.clone().unwrap_or_else(|| {
@@ -246,7 +251,7 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
         }
     });
     std::fs::create_dir_all(&out_dir)
-        .with_context(|| format!("{}: cannot create the output folder", out_dir.display()))?;
+        .map_err(|e| Error::io(&out_dir, FileOp::CreateOutputFolder, e))?;
 
     if cfg!(debug_assertions) {
         eprintln!(
@@ -261,8 +266,11 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
     // data.csv: fresh, or resumed with the keys of the rows already there.
     let data_path = out_dir.join(DATA_FILE);
     let (mut writer, done) = if opts.resume && data_path.exists() {
-        let (table, dropped) = Table::read(&data_path)?;
-        if dropped {
+        let ReadTable {
+            table,
+            dropped_last_line,
+        } = Table::read(&data_path)?;
+        if dropped_last_line {
             eprintln!(
                 "warning: {}: dropped an incomplete last line (an interrupted write); \
                  that run will be done again",
@@ -270,15 +278,18 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
             );
         }
         if table.columns != plan.columns {
-            bail!(
-                "{}: its columns differ from what {} now produces (was the manifest, \
-                 `repeats` or --quick changed?); run without --resume to start afresh\n  \
-                 file:     {}\n  manifest: {}",
-                data_path.display(),
-                manifest.path.display(),
-                table.columns.join(","),
-                plan.columns.join(",")
-            );
+            return Err(InputError::file(
+                &data_path,
+                format!(
+                    "its columns differ from what {} now produces (was the manifest, \
+                     `repeats` or --quick changed?); run without --resume to start afresh\n  \
+                     file:     {}\n  manifest: {}",
+                    manifest.path.display(),
+                    table.columns.join(","),
+                    plan.columns.join(",")
+                ),
+            )
+            .into());
         }
         let key_len = 1 + plan.param_columns.len();
         let done: HashSet<Vec<String>> = table.rows.iter().map(|r| r[..key_len].to_vec()).collect();
@@ -304,7 +315,10 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
         .collect();
     let skipped = mine.len() - todo.len();
 
-    let (git_revision, git_dirty) = meta::git_revision(manifest.base_dir());
+    let GitRevision {
+        revision: git_revision,
+        dirty: git_dirty,
+    } = meta::git_revision(manifest.base_dir());
     let mut meta = Meta {
         name: manifest.name.clone(),
         kind: manifest.kind.clone(),
@@ -360,7 +374,7 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .context("cannot start the worker threads")?;
+        .map_err(Error::Threads)?;
     let bar = if opts.progress && std::io::stderr().is_terminal() {
         let bar = ProgressBar::new(todo.len() as u64);
         if let Ok(style) =
@@ -386,13 +400,14 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
                 bar.abandon();
                 meta.wall_time_s = clock.elapsed().as_secs_f64();
                 let _ = meta.write(&out_dir);
-                return Err(e.context(format!(
-                    "{}: run `{what}` failed ({} of {} runs finished are in {})",
-                    manifest.path.display(),
-                    meta.runs_done + skipped,
-                    mine.len(),
-                    data_path.display()
-                )));
+                return Err(Error::Run {
+                    manifest: manifest.path.clone(),
+                    run: what,
+                    done: meta.runs_done + skipped,
+                    total: mine.len(),
+                    data: data_path,
+                    error: Box::new(e),
+                });
             }
         };
         // A parameter's column holds the parameter (also where the study
@@ -410,13 +425,13 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
                 } else if plan.param_columns.contains(c) {
                     Ok(String::new()) // a parameter this run does not set
                 } else {
-                    Err(anyhow::anyhow!(
+                    Err(Error::Internal(format!(
                         "internal error: study `{}` wrote no column `{c}`",
                         manifest.kind
-                    ))
+                    )))
                 }
             })
-            .collect::<anyhow::Result<Vec<String>>>()?;
+            .collect::<Result<Vec<String>, Error>>()?;
         writer.append(&cells)?;
         meta.runs_done += 1;
         bar.inc(1);
@@ -429,7 +444,7 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
     let failures = if opts.shard.is_some() {
         Vec::new()
     } else {
-        let (table, _) = Table::read(&data_path)?;
+        let table = Table::read(&data_path)?.table;
         draw_figures(&manifest, &plan, &table, &out_dir, &mut meta)
     };
     meta.wall_time_s = clock.elapsed().as_secs_f64();
@@ -437,14 +452,16 @@ pub fn run_experiment(path: &Path, opts: &Options) -> anyhow::Result<Report> {
     meta.complete = failures.is_empty();
     meta.write(&out_dir)?;
     if !failures.is_empty() {
-        bail!(
-            "{}: the runs finished ({}), but figures failed:\n  {}",
-            manifest.path.display(),
-            data_path.display(),
-            failures.join("\n  ")
-        );
+        return Err(Error::Figures {
+            what: format!(
+                "{}: the runs finished ({}), but figures failed",
+                manifest.path.display(),
+                data_path.display()
+            ),
+            failures,
+        });
     }
-    Ok(Report {
+    Ok(ExperimentRun {
         name: manifest.name.clone(),
         out_dir,
         runs_total: mine.len(),
@@ -475,12 +492,12 @@ fn draw_figures(
                 meta.figures.push(spec.file.clone());
                 meta.summary.extend(summary);
             }
-            Err(e) => failures.push(format!("{e:#}")),
+            Err(e) => failures.push(e.to_string()),
         }
     }
     match manifest.study().figures(table, out_dir) {
         Ok(stems) => meta.figures.extend(stems),
-        Err(e) => failures.push(format!("{} figures: {e:#}", manifest.kind)),
+        Err(e) => failures.push(format!("{} figures: {e}", manifest.kind)),
     }
     failures
 }

@@ -15,11 +15,12 @@
 //! data: the manifest must have the recorded experiment's name and the
 //! table's columns, and every row of the table must be one of its runs.
 
-use super::data::{Table, DATA_FILE};
+use super::data::{ReadTable, Table, DATA_FILE};
 use super::merge::copy_study_files;
 use super::meta::Meta;
 use super::{draw_figures, load_manifest, RatioSummary};
-use anyhow::{bail, Context};
+use crate::{Error, FileOp};
+use raylab::io::InputError;
 use std::path::{Path, PathBuf};
 
 /// What a redraw did.
@@ -44,7 +45,7 @@ pub fn redraw(
     dir: &Path,
     out_dir: Option<&Path>,
     manifest: Option<&Path>,
-) -> anyhow::Result<Redrawn> {
+) -> Result<Redrawn, Error> {
     let mut meta = Meta::read(dir)?;
     let manifest = match manifest {
         None => meta.recorded_manifest(dir)?,
@@ -52,32 +53,43 @@ pub fn redraw(
             let m = load_manifest(path)?;
             let m = if meta.quick { m.with_quick()? } else { m };
             if m.name != meta.name {
-                bail!(
-                    "{}: the manifest of experiment `{}`, but {} holds a run of `{}`",
-                    path.display(),
-                    m.name,
-                    dir.display(),
-                    meta.name
-                );
+                return Err(InputError::file(
+                    path,
+                    format!(
+                        "the manifest of experiment `{}`, but {} holds a run of `{}`",
+                        m.name,
+                        dir.display(),
+                        meta.name
+                    ),
+                )
+                .into());
             }
             m
         }
     };
     let plan = manifest.plan()?;
-    let (table, dropped) = Table::read(&dir.join(DATA_FILE))?;
-    if dropped {
-        bail!(
-            "{}: its last row is incomplete (an interrupted run?); finish it with --resume first",
-            dir.join(DATA_FILE).display()
-        );
+    let data = dir.join(DATA_FILE);
+    let ReadTable {
+        table,
+        dropped_last_line,
+    } = Table::read(&data)?;
+    if dropped_last_line {
+        return Err(InputError::file(
+            &data,
+            "its last row is incomplete (an interrupted run?); finish it with --resume first",
+        )
+        .into());
     }
     if table.columns != plan.columns {
-        bail!(
-            "{}: its columns differ from the recorded manifest's plan\n  file:     {}\n  manifest: {}",
-            dir.join(DATA_FILE).display(),
-            table.columns.join(","),
-            plan.columns.join(",")
-        );
+        return Err(InputError::file(
+            &data,
+            format!(
+                "its columns differ from the recorded manifest's plan\n  file:     {}\n  manifest: {}",
+                table.columns.join(","),
+                plan.columns.join(",")
+            ),
+        )
+        .into());
     }
     // A row belongs to a run when their keys agree wherever the plan has a
     // value (a study may fill a parameter column as it runs: the gradient
@@ -91,25 +103,25 @@ pub fn redraw(
                 .all(|(p, r)| p.is_empty() || p == r)
         });
         if !known {
-            bail!(
-                "{}:{}: this row is not a run of the manifest ({}); was a sweep changed?",
-                dir.join(DATA_FILE).display(),
+            return Err(InputError::line(
+                &data,
                 i + 2,
-                row[..key_len].join(",")
-            );
+                format!(
+                    "this row is not a run of the manifest ({}); was a sweep changed?",
+                    row[..key_len].join(",")
+                ),
+            )
+            .into());
         }
     }
     let out = out_dir.unwrap_or(dir);
     if out != dir {
-        std::fs::create_dir_all(out)
-            .with_context(|| format!("{}: cannot create the output folder", out.display()))?;
+        std::fs::create_dir_all(out).map_err(|e| Error::io(out, FileOp::CreateOutputFolder, e))?;
         copy_study_files(dir, out, Path::new(""))?;
-        std::fs::copy(dir.join(DATA_FILE), out.join(DATA_FILE)).with_context(|| {
-            format!(
-                "cannot copy {} to {}",
-                dir.join(DATA_FILE).display(),
-                out.display()
-            )
+        std::fs::copy(&data, out.join(DATA_FILE)).map_err(|error| Error::Copy {
+            from: data.clone(),
+            to: out.to_path_buf(),
+            error,
         })?;
     }
     meta.figures.clear();
@@ -117,11 +129,10 @@ pub fn redraw(
     let failures = draw_figures(&manifest, &plan, &table, out, &mut meta);
     meta.write(out)?;
     if !failures.is_empty() {
-        bail!(
-            "{}: figures failed:\n  {}",
-            out.display(),
-            failures.join("\n  ")
-        );
+        return Err(Error::Figures {
+            what: format!("{}: figures failed", out.display()),
+            failures,
+        });
     }
     Ok(Redrawn {
         name: meta.name.clone(),

@@ -40,6 +40,17 @@ pub struct Shard {
 /// The most shards an experiment may be split into.
 pub const MAX_SHARDS: usize = 100_000;
 
+/// Text that is not a shard `I/N` (1 ≤ I ≤ N ≤ [`MAX_SHARDS`]).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ShardError {
+    /// Not of the form `I/N` with 1 ≤ I ≤ N.
+    #[error("`{0}` is not a shard: expected I/N with 1 ≤ I ≤ N, e.g. 2/3")]
+    Malformed(String),
+    /// More than [`MAX_SHARDS`] shards.
+    #[error("`{0}`: at most {MAX_SHARDS} shards (a shard per run is already the finest split)")]
+    TooMany(String),
+}
+
 impl Shard {
     /// The default folder name of this shard: `I-of-N`.
     pub fn dir_name(&self) -> String {
@@ -54,11 +65,11 @@ impl fmt::Display for Shard {
 }
 
 impl FromStr for Shard {
-    type Err = String;
+    type Err = ShardError;
 
     /// `I/N` with 1 ≤ I ≤ N ≤ [`MAX_SHARDS`].
-    fn from_str(s: &str) -> Result<Shard, String> {
-        let bad = || format!("`{s}` is not a shard: expected I/N with 1 ≤ I ≤ N, e.g. 2/3");
+    fn from_str(s: &str) -> Result<Shard, ShardError> {
+        let bad = || ShardError::Malformed(s.to_string());
         let (i, n) = s.split_once('/').ok_or_else(bad)?;
         let index: usize = i.trim().parse().map_err(|_| bad())?;
         let count: usize = n.trim().parse().map_err(|_| bad())?;
@@ -66,9 +77,7 @@ impl FromStr for Shard {
             return Err(bad());
         }
         if count > MAX_SHARDS {
-            return Err(format!(
-                "`{s}`: at most {MAX_SHARDS} shards (a shard per run is already the finest split)"
-            ));
+            return Err(ShardError::TooMany(s.to_string()));
         }
         Ok(Shard { index, count })
     }
@@ -151,7 +160,11 @@ mod tests {
         for bad in ["0/3", "4/3", "1/0", "x/2", "1", "1/2/3", "-1/2", ""] {
             assert!(bad.parse::<Shard>().is_err(), "{bad}");
         }
-        assert!("1/100001".parse::<Shard>().unwrap_err().contains("at most"));
+        assert!("1/100001"
+            .parse::<Shard>()
+            .unwrap_err()
+            .to_string()
+            .contains("at most"));
     }
 
     #[test]

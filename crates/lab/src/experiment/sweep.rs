@@ -21,6 +21,24 @@ pub const MAX_VALUES: usize = 100_000;
 /// Most runs one sweep may have (the product of its list lengths).
 pub const MAX_RUNS: usize = 1_000_000;
 
+/// A parameter value, range or string template written wrongly: what is
+/// wrong, in the manifest's terms. The manifest reader prefixes the file,
+/// the line and the parameter.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct ValueError(pub String);
+
+/// A sweep that cannot be expanded into runs: what is wrong, and the byte
+/// range of the manifest text it concerns (for the line in the message).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{message}")]
+pub struct SweepError {
+    /// Byte range of the sweep or parameter in the manifest text.
+    pub span: Range<usize>,
+    /// What is wrong.
+    pub message: String,
+}
+
 /// One parameter value: what a manifest may write on the right of `=`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(untagged)]
@@ -86,16 +104,16 @@ impl Value {
     }
 
     /// A scalar TOML value; tables, arrays and dates are not values.
-    fn from_toml(v: &toml::Value) -> Result<Value, String> {
+    fn from_toml(v: &toml::Value) -> Result<Value, ValueError> {
         match v {
             toml::Value::Integer(i) => Ok(Value::Int(*i)),
             toml::Value::Float(x) if x.is_finite() => Ok(Value::Float(*x)),
-            toml::Value::Float(x) => Err(format!("values must be finite, got {x}")),
+            toml::Value::Float(x) => Err(ValueError(format!("values must be finite, got {x}"))),
             toml::Value::Boolean(b) => Ok(Value::Bool(*b)),
             toml::Value::String(s) => Ok(Value::Str(s.clone())),
-            toml::Value::Datetime(_) => Err("dates are not parameter values".into()),
-            toml::Value::Array(_) => Err("lists cannot be nested".into()),
-            toml::Value::Table(_) => Err("a table inside a list is not a value".into()),
+            toml::Value::Datetime(_) => Err(ValueError("dates are not parameter values".into())),
+            toml::Value::Array(_) => Err(ValueError("lists cannot be nested".into())),
+            toml::Value::Table(_) => Err(ValueError("a table inside a list is not a value".into())),
         }
     }
 }
@@ -103,11 +121,11 @@ impl Value {
 /// Expand a manifest value into the list of values it stands for: a scalar
 /// is one value, an array is its elements, and a table is a range
 /// (`{ from, to, step }` or `{ from, to, count }`, both ends included).
-pub fn expand_values(v: &toml::Value) -> Result<Vec<Value>, String> {
+pub fn expand_values(v: &toml::Value) -> Result<Vec<Value>, ValueError> {
     let values = match v {
         toml::Value::Array(items) => {
             if items.is_empty() {
-                return Err("a list of values must not be empty".into());
+                return Err(ValueError("a list of values must not be empty".into()));
             }
             items
                 .iter()
@@ -118,49 +136,55 @@ pub fn expand_values(v: &toml::Value) -> Result<Vec<Value>, String> {
         scalar => vec![Value::from_toml(scalar)?],
     };
     if values.len() > MAX_VALUES {
-        return Err(format!(
+        return Err(ValueError(format!(
             "expands to {} values, more than the limit of {MAX_VALUES}",
             values.len()
-        ));
+        )));
     }
     Ok(values)
 }
 
 /// A range table: `from` and `to` (both included) with either `step` or
 /// `count`. Integer `from`, `to` and `step` give integers; otherwise floats.
-fn expand_range(t: &toml::Table) -> Result<Vec<Value>, String> {
+fn expand_range(t: &toml::Table) -> Result<Vec<Value>, ValueError> {
     const EXPECTED: &str = "a range is `{ from, to, step }` or `{ from, to, count }`";
     for key in t.keys() {
         if !matches!(key.as_str(), "from" | "to" | "step" | "count") {
-            return Err(format!("unknown key `{key}` in a range ({EXPECTED})"));
+            return Err(ValueError(format!(
+                "unknown key `{key}` in a range ({EXPECTED})"
+            )));
         }
     }
-    let get = |k: &str| -> Result<&toml::Value, String> {
+    let get = |k: &str| -> Result<&toml::Value, ValueError> {
         t.get(k)
-            .ok_or_else(|| format!("range lacks `{k}` ({EXPECTED})"))
+            .ok_or_else(|| ValueError(format!("range lacks `{k}` ({EXPECTED})")))
     };
-    let number = |k: &str| -> Result<f64, String> {
+    let number = |k: &str| -> Result<f64, ValueError> {
         match get(k)? {
             toml::Value::Integer(i) => Ok(*i as f64),
             toml::Value::Float(x) if x.is_finite() => Ok(*x),
-            other => Err(format!("range `{k}` must be a finite number, got {other}")),
+            other => Err(ValueError(format!(
+                "range `{k}` must be a finite number, got {other}"
+            ))),
         }
     };
     let (from, to) = (number("from")?, number("to")?);
     match (t.get("step"), t.get("count")) {
-        (Some(_), Some(_)) => Err(format!(
+        (Some(_), Some(_)) => Err(ValueError(format!(
             "a range has `step` or `count`, not both ({EXPECTED})"
-        )),
-        (None, None) => Err(format!("range lacks `step` or `count` ({EXPECTED})")),
+        ))),
+        (None, None) => Err(ValueError(format!(
+            "range lacks `step` or `count` ({EXPECTED})"
+        ))),
         (Some(step_value), None) => {
             let step = number("step")?;
             if step == 0.0 {
-                return Err("range `step` must not be 0".into());
+                return Err(ValueError("range `step` must not be 0".into()));
             }
             if (to - from) * step < 0.0 {
-                return Err(format!(
+                return Err(ValueError(format!(
                     "range `step` = {step} never gets from {from} to {to} (wrong sign)"
-                ));
+                )));
             }
             if let (toml::Value::Integer(a), toml::Value::Integer(b), toml::Value::Integer(s)) =
                 (get("from")?, get("to")?, step_value)
@@ -182,9 +206,9 @@ fn expand_range(t: &toml::Table) -> Result<Vec<Value>, String> {
                 toml::Value::Integer(c) if *c >= 2 => *c,
                 toml::Value::Integer(1) if from == to => 1,
                 other => {
-                    return Err(format!(
+                    return Err(ValueError(format!(
                         "range `count` must be an integer of at least 2 (or 1 with from = to), got {other}"
-                    ))
+                    )))
                 }
             };
             check_count(count as f64)?;
@@ -206,11 +230,11 @@ fn expand_range(t: &toml::Table) -> Result<Vec<Value>, String> {
     }
 }
 
-fn check_count(n: f64) -> Result<(), String> {
+fn check_count(n: f64) -> Result<(), ValueError> {
     if n > MAX_VALUES as f64 {
-        Err(format!(
+        Err(ValueError(format!(
             "range has {n} values, more than the limit of {MAX_VALUES}"
-        ))
+        )))
     } else {
         Ok(())
     }
@@ -223,10 +247,11 @@ fn tidy(x: f64) -> f64 {
     format!("{x:.12e}").parse().unwrap_or(x)
 }
 
-/// One parameter of a block of the manifest, with its values and where it
-/// is written (a byte range of the manifest, for error messages).
+/// One parameter of a block of the manifest (`[fixed]`, a `[[sweep]]`,
+/// `[quick]`), with its values and where it is written (a byte range of
+/// the manifest, for error messages).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Param {
+pub struct ManifestParam {
     /// The parameter name (the TOML key).
     pub name: String,
     /// Its values, in the order written; one value for a scalar.
@@ -241,7 +266,7 @@ pub struct Sweep {
     /// The sweep's name (the `sweep` column of `data.csv`).
     pub name: String,
     /// Its parameters in the order written.
-    pub params: Vec<Param>,
+    pub params: Vec<ManifestParam>,
     /// Byte range of the block in the manifest text.
     pub span: Range<usize>,
 }
@@ -294,11 +319,8 @@ impl RunPoint {
 /// replaces a fixed one of the same name), expanded as a cartesian product
 /// with the first parameter varying slowest, and string templates filled.
 /// Errors carry the byte range they concern.
-pub fn expand_sweep(
-    fixed: &[Param],
-    sweep: &Sweep,
-) -> Result<Vec<RunPoint>, (Range<usize>, String)> {
-    let mut params: Vec<&Param> = fixed
+pub fn expand_sweep(fixed: &[ManifestParam], sweep: &Sweep) -> Result<Vec<RunPoint>, SweepError> {
+    let mut params: Vec<&ManifestParam> = fixed
         .iter()
         .filter(|f| !sweep.params.iter().any(|p| p.name == f.name))
         .collect();
@@ -307,14 +329,12 @@ pub fn expand_sweep(
         .iter()
         .try_fold(1usize, |n, p| n.checked_mul(p.values.len()))
         .filter(|&n| n <= MAX_RUNS)
-        .ok_or_else(|| {
-            (
-                sweep.span.clone(),
-                format!(
-                    "sweep `{}` has more than {MAX_RUNS} runs; split it",
-                    sweep.name
-                ),
-            )
+        .ok_or_else(|| SweepError {
+            span: sweep.span.clone(),
+            message: format!(
+                "sweep `{}` has more than {MAX_RUNS} runs; split it",
+                sweep.name
+            ),
         })?;
     let mut runs = Vec::with_capacity(count);
     let mut index = vec![0usize; params.len()];
@@ -332,9 +352,9 @@ pub fn expand_sweep(
         for p in &mut filled {
             if let Value::Str(s) = &p.value {
                 let lookup = |name: &str| raw.iter().find(|q| q.name == name).map(|q| &q.value);
-                let text = fill_template(s, lookup).map_err(|e| {
-                    let msg = format!("sweep `{}`, parameter `{}`: {e}", sweep.name, p.name);
-                    (p.span.clone(), msg)
+                let text = fill_template(s, lookup).map_err(|e| SweepError {
+                    span: p.span.clone(),
+                    message: format!("sweep `{}`, parameter `{}`: {e}", sweep.name, p.name),
                 })?;
                 p.value = Value::Str(text);
             }
@@ -364,7 +384,7 @@ struct Field<'a> {
 
 /// Split a template into literal text and fields; `{{` and `}}` are
 /// literal braces.
-fn parse_template(s: &str) -> Result<Vec<Result<String, Field<'_>>>, String> {
+fn parse_template(s: &str) -> Result<Vec<Result<String, Field<'_>>>, ValueError> {
     let mut parts = Vec::new();
     let mut literal = String::new();
     let mut rest = s;
@@ -373,26 +393,28 @@ fn parse_template(s: &str) -> Result<Vec<Result<String, Field<'_>>>, String> {
             literal.push(c);
             rest = &rest[2..];
         } else if c == '{' {
-            let end = rest
-                .find('}')
-                .ok_or_else(|| format!("unclosed `{{` in `{s}` (write `{{{{` for a brace)"))?;
+            let end = rest.find('}').ok_or_else(|| {
+                ValueError(format!("unclosed `{{` in `{s}` (write `{{{{` for a brace)"))
+            })?;
             let inner = &rest[1..end];
             let (name, spec) = match inner.split_once(':') {
                 Some((n, spec)) => (n, Some(spec)),
                 None => (inner, None),
             };
             if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-                return Err(format!("`{{{inner}}}` in `{s}` does not name a parameter"));
+                return Err(ValueError(format!(
+                    "`{{{inner}}}` in `{s}` does not name a parameter"
+                )));
             }
             let zero_pad = match spec {
                 None => None,
                 Some(spec) => match spec.strip_prefix('0').map(str::parse::<usize>) {
                     Some(Ok(w)) if w <= 32 => Some(w),
                     _ => {
-                        return Err(format!(
+                        return Err(ValueError(format!(
                             "format `{spec}` in `{s}` is not supported (only `0W`, \
                              zero padding to W digits, as in `{{{name}:02}}`)"
-                        ))
+                        )))
                     }
                 },
             };
@@ -400,9 +422,9 @@ fn parse_template(s: &str) -> Result<Vec<Result<String, Field<'_>>>, String> {
             parts.push(Err(Field { name, zero_pad }));
             rest = &rest[end + 1..];
         } else if c == '}' {
-            return Err(format!(
+            return Err(ValueError(format!(
                 "unmatched `}}` in `{s}` (write `}}}}` for a brace)"
-            ));
+            )));
         } else {
             literal.push(c);
             rest = &rest[c.len_utf8()..];
@@ -429,28 +451,28 @@ pub fn template_names(s: &str) -> Vec<String> {
 pub fn fill_template<'v>(
     s: &str,
     lookup: impl Fn(&str) -> Option<&'v Value>,
-) -> Result<String, String> {
+) -> Result<String, ValueError> {
     let mut out = String::new();
     for part in parse_template(s)? {
         match part {
             Ok(text) => out.push_str(&text),
             Err(field) => {
                 let v = lookup(field.name).ok_or_else(|| {
-                    format!(
+                    ValueError(format!(
                         "`{{{}}}` in `{s}` names no parameter of this run",
                         field.name
-                    )
+                    ))
                 })?;
                 match (field.zero_pad, v) {
                     (None, v) => out.push_str(&v.to_string()),
                     (Some(w), Value::Int(i)) => out.push_str(&format!("{i:0w$}")),
                     (Some(_), other) => {
-                        return Err(format!(
+                        return Err(ValueError(format!(
                             "`{{{}:0…}}` in `{s}` pads integers, but `{}` is {}",
                             field.name,
                             field.name,
                             other.type_name()
-                        ))
+                        )))
                     }
                 }
             }

@@ -4,7 +4,7 @@
 //! [`crate::report`]; the metrics themselves are [`crate::analysis::metrics`].
 
 use crate::analysis::{diff_files, ImageMetrics};
-use anyhow::Result;
+use crate::Error;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -24,7 +24,7 @@ pub struct DiffReport {
 impl DiffReport {
     /// Read both images, compute the metrics and write the ꟻLIP error map
     /// to `error_map` when given.
-    pub fn run(test: &Path, reference: &Path, error_map: Option<&Path>) -> Result<Self> {
+    pub fn run(test: &Path, reference: &Path, error_map: Option<&Path>) -> Result<Self, Error> {
         let metrics = diff_files(test, reference, error_map)?;
         Ok(Self {
             test: test.to_path_buf(),
@@ -38,8 +38,12 @@ impl DiffReport {
     /// metrics, `test`, `reference` and (when written) `error_map`. JSON
     /// has no infinity (serde_json would write null), so identical images
     /// get the PSNR `"inf"`, as Python's `float("inf")` reads it.
-    pub fn json(&self) -> Result<String> {
-        let mut json = serde_json::to_value(self.metrics)?;
+    pub fn json(&self) -> Result<String, Error> {
+        let json_error = |error| Error::Json {
+            what: "the diff report",
+            error,
+        };
+        let mut json = serde_json::to_value(self.metrics).map_err(json_error)?;
         if self.metrics.psnr.is_infinite() {
             json["psnr"] = serde_json::Value::from("inf");
         }
@@ -48,7 +52,10 @@ impl DiffReport {
         if let Some(out) = &self.error_map {
             json["error_map"] = out.display().to_string().into();
         }
-        Ok(format!("{}\n", serde_json::to_string_pretty(&json)?))
+        Ok(format!(
+            "{}\n",
+            serde_json::to_string_pretty(&json).map_err(json_error)?
+        ))
     }
 }
 

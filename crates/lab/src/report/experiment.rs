@@ -5,20 +5,22 @@
 //! is [`crate::experiment`].
 
 use crate::experiment::merge::{merge_shards, MergeOptions, Merged};
-use crate::experiment::{redraw, run_experiment, Options, RatioSummary, Redrawn, Report};
-use anyhow::Result;
+use crate::experiment::{
+    redraw, run_experiment, ExperimentOptions, ExperimentRun, RatioSummary, Redrawn,
+};
+use crate::Error;
 use std::fmt;
 use std::path::Path;
 
 /// What one experiment run did, as `raylab experiment` prints it.
 #[derive(Clone, Debug)]
-pub struct ExperimentReport(pub Report);
+pub struct ExperimentReport(pub ExperimentRun);
 
 impl ExperimentReport {
     /// Run the experiment of the manifest at `manifest`.
-    pub fn run(manifest: &Path, opts: &Options) -> Result<Self> {
+    pub fn run(manifest: &Path, opts: &ExperimentOptions) -> Result<Self, Error> {
         if opts.threads == Some(0) {
-            anyhow::bail!("--threads must be at least 1");
+            return Err(Error::Argument("--threads must be at least 1".into()));
         }
         run_experiment(manifest, opts).map(Self)
     }
@@ -77,7 +79,7 @@ pub struct MergeReport(pub Merged);
 
 impl MergeReport {
     /// Merge the shards named in `opts`.
-    pub fn run(opts: &MergeOptions) -> Result<Self> {
+    pub fn run(opts: &MergeOptions) -> Result<Self, Error> {
         merge_shards(opts).map(Self)
     }
 }
@@ -110,8 +112,8 @@ impl fmt::Display for MergeReport {
                 s.dir
             )?;
         }
-        for (shard, what) in &m.missing {
-            writeln!(f, "missing    shard {shard}: {what}")?;
+        for missing in &m.missing {
+            writeln!(f, "missing    shard {}: {}", missing.shard, missing.run)?;
         }
         write_outputs(f, &m.out_dir, &m.figures, &m.summary)
     }
@@ -124,7 +126,7 @@ pub struct PlotReport(pub Redrawn);
 impl PlotReport {
     /// Redraw the figures of the experiment in `dir` into `out_dir`, those
     /// of `manifest` when given (else of the manifest it recorded).
-    pub fn run(dir: &Path, out_dir: Option<&Path>, manifest: Option<&Path>) -> Result<Self> {
+    pub fn run(dir: &Path, out_dir: Option<&Path>, manifest: Option<&Path>) -> Result<Self, Error> {
         redraw(dir, out_dir, manifest).map(Self)
     }
 }

@@ -5,7 +5,7 @@
 //! Part of the top-layer [`crate::report`].
 
 use crate::analysis::plot::Heatmap;
-use anyhow::{anyhow, Context, Result};
+use crate::{Error, FileOp, Result};
 use raylab::diff::{self, Comparison, GradientRender, Gradients, Renderer};
 use raylab::integrator::IntegratorKind;
 use raylab::io::image::{write_exr_channels, write_film_exr, ChannelData};
@@ -23,18 +23,27 @@ pub struct FdCheck {
     pub step: Option<f32>,
 }
 
+/// Text that is not a `--check` value.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FdCheckError {
+    /// `fd:H` with H not a positive number.
+    #[error("the step in `fd:{0}` must be a positive number")]
+    Step(String),
+    /// Neither `fd` nor `fd:H`.
+    #[error("unknown check `{0}` (expected `fd` or `fd:H`, H the finite-difference step)")]
+    Unknown(String),
+}
+
 impl FdCheck {
     /// Parse `fd` or `fd:H` (H a positive number).
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, FdCheckError> {
         match s.split_once(':') {
             None if s == "fd" => Ok(Self { step: None }),
             Some(("fd", h)) => match h.parse::<f32>() {
                 Ok(h) if h > 0.0 && h.is_finite() => Ok(Self { step: Some(h) }),
-                _ => Err(format!("the step in `fd:{h}` must be a positive number")),
+                _ => Err(FdCheckError::Step(h.to_string())),
             },
-            _ => Err(format!(
-                "unknown check `{s}` (expected `fd` or `fd:H`, H the finite-difference step)"
-            )),
+            _ => Err(FdCheckError::Unknown(s.to_string())),
         }
     }
 }
@@ -104,13 +113,13 @@ impl GradReport {
             }
         }
         std::fs::create_dir_all(&opts.out_dir)
-            .with_context(|| format!("{}: cannot create folder", opts.out_dir.display()))?;
+            .map_err(|e| Error::io(&opts.out_dir, FileOp::CreateFolder, e))?;
 
         let start = Instant::now();
         let (film, _) = opts
             .integrator
             .render::<NoStats>(&scene, opts.threads)
-            .map_err(|e| anyhow!("{e}"))?;
+            .map_err(Error::Render)?;
         let render_s = start.elapsed().as_secs_f64();
         write_film_exr(&opts.out_dir.join("image.exr"), &film)?;
 

@@ -33,14 +33,15 @@ pub use stats::StatsOptions;
 #[cfg(feature = "embree")]
 pub use validate::{ValidateOptions, ValidateReport};
 
+use crate::Error;
 use std::io::Write as _;
 
 /// Write `text` to stdout; a reader that went away (`raylab diff … | head`)
 /// is not an error.
-pub fn print_stdout(text: &str) -> anyhow::Result<()> {
+pub fn print_stdout(text: &str) -> Result<(), Error> {
     let mut out = std::io::stdout().lock();
     match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Error::Print(e)),
         _ => Ok(()),
     }
 }

@@ -17,8 +17,8 @@
 //! The first Ctrl-C stops the run after the current iteration and still
 //! draws the figures; a second one ends the process at once.
 
-use crate::analysis::plot::{ImageGrid, LineChart, Scale, Series, SeriesStyle};
-use anyhow::{anyhow, Context, Result};
+use crate::analysis::plot::{AxisScale, ImageGrid, LineChart, Series, SeriesStyle};
+use crate::{Error, FileOp};
 use raylab::diff::optimize::{
     average_last, load_spec, relative_error, Iteration, Optimizer, Problem, Spec,
 };
@@ -88,17 +88,17 @@ impl OptimizeReport {
             .try_fold(0.0f64, |m, e| e.map(|e| m.max(e)))
     }
 
-    pub fn run(opts: &OptimizeOptions) -> Result<Self> {
+    pub fn run(opts: &OptimizeOptions) -> Result<Self, Error> {
         let mut spec = load_spec(&opts.spec)?;
         let run = match opts.stop_after {
-            Some(0) => anyhow::bail!("--stop-after must be at least 1"),
+            Some(0) => return Err(Error::Argument("--stop-after must be at least 1".into())),
             Some(n) => n.min(spec.iterations),
             None => spec.iterations,
         };
         spec.snapshots.retain(|&i| i < run);
-        let problem = Problem::new(spec, opts.threads).map_err(|e| anyhow!("{e}"))?;
+        let problem = Problem::new(spec, opts.threads)?;
         std::fs::create_dir_all(&opts.out_dir)
-            .with_context(|| format!("{}: cannot create folder", opts.out_dir.display()))?;
+            .map_err(|e| Error::io(&opts.out_dir, FileOp::CreateFolder, e))?;
         let dir = &opts.out_dir;
         let spec = &problem.spec;
         write_image(&dir.join("target.exr"), &problem.target)?;
@@ -106,11 +106,11 @@ impl OptimizeReport {
 
         let csv_path = dir.join("optimize.csv");
         let mut csv = std::fs::File::create(&csv_path)
-            .with_context(|| format!("{}: cannot create", csv_path.display()))?;
+            .map_err(|e| Error::io(&csv_path, FileOp::Create, e))?;
         let truth = spec.truth();
         let header = csv_header(spec, truth.is_some());
         csv.write_all(header.as_bytes())
-            .with_context(|| format!("{}: cannot write", csv_path.display()))?;
+            .map_err(|e| Error::io(&csv_path, FileOp::Write, e))?;
 
         let bar = progress_bar(run, opts.progress);
         let deferred = raylab::io::interrupt::defer();
@@ -124,11 +124,14 @@ impl OptimizeReport {
         for i in 0..run {
             let it = problem
                 .iterate(i, &mut theta, &mut optimizer, opts.threads)
-                .map_err(|e| anyhow!("iteration {i}: {e}"))?;
+                .map_err(|error| Error::Iteration {
+                    iteration: i,
+                    error,
+                })?;
             // One write per row: a killed run leaves whole rows.
             csv.write_all(csv_row(&it, truth.as_deref()).as_bytes())
                 .and_then(|()| csv.flush())
-                .with_context(|| format!("{}: cannot write", csv_path.display()))?;
+                .map_err(|e| Error::io(&csv_path, FileOp::Write, e))?;
             iterates.push(theta.clone());
             write_final(&problem, &theta, dir, &opts.spec, i + 1, 1)?;
             bar.set_message(format!("loss {:.4e}", it.loss));
@@ -211,8 +214,8 @@ fn write_final(
     spec: &Path,
     done: u32,
     averaged: u32,
-) -> Result<()> {
-    let text = problem.text_for(theta, dir).map_err(|e| anyhow!("{e}"))?;
+) -> Result<(), Error> {
+    let text = problem.text_for(theta, dir)?;
     let what = if averaged > 1 {
         format!(", the mean of the last {averaged} iterates")
     } else {
@@ -223,8 +226,9 @@ fn write_final(
         spec.display(),
         if done == 1 { "" } else { "s" }
     );
-    write_atomically(&dir.join("final.toml"), |p| {
-        std::fs::write(p, head + &text).map_err(Into::into)
+    let path = dir.join("final.toml");
+    write_atomically(&path, |p| {
+        std::fs::write(p, head + &text).map_err(|e| Error::io(&path, FileOp::Write, e))
     })
 }
 
@@ -289,7 +293,7 @@ fn draw_figures(
     truth: Option<&[f32]>,
     dir: &Path,
     threads: Option<usize>,
-) -> Result<()> {
+) -> Result<(), Error> {
     if history.is_empty() {
         return Ok(());
     }
@@ -303,7 +307,7 @@ fn draw_figures(
         "iteration",
         format!("{} loss against the target", spec.loss.name()),
     );
-    loss.y_scale = Scale::Log10;
+    loss.y_scale = AxisScale::Log10;
     loss.series.push(Series::new(
         format!(
             "loss of a {}-spp render (gradient: {} spp)",
@@ -325,7 +329,7 @@ fn draw_figures(
                 "iteration",
                 "relative error |θ − θ*| / |θ*|",
             );
-            c.y_scale = Scale::Log10;
+            c.y_scale = AxisScale::Log10;
             c
         }
         None => LineChart::new(format!("{name}: parameters"), "iteration", "value"),
@@ -356,16 +360,15 @@ fn draw_figures(
         .push((problem.target.clone(), "target".to_string()));
     for &i in &spec.snapshots {
         if let Some(h) = history.get(i as usize) {
-            let img = problem
-                .snapshot(&h.theta, threads)
-                .map_err(|e| anyhow!("{e}"))?;
+            let img = problem.snapshot(&h.theta, threads)?;
             grid.cells.push((img, format!("iteration {i}")));
         }
     }
-    let img = problem.snapshot(end, threads).map_err(|e| anyhow!("{e}"))?;
+    let img = problem.snapshot(end, threads)?;
     grid.cells
         .push((img, format!("after {} iterations", history.len())));
-    grid.save(&dir.join("images"))
+    grid.save(&dir.join("images"))?;
+    Ok(())
 }
 
 impl fmt::Display for OptimizeReport {

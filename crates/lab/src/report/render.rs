@@ -7,7 +7,7 @@
 
 use crate::analysis::plot::Heatmap;
 use crate::analysis::{compare, ImageMetrics};
-use anyhow::{Context, Result};
+use crate::Error;
 use raylab::accel::AccelKind;
 use raylab::film::Filter;
 use raylab::integrator::{IntegratorKind, Prepared};
@@ -52,15 +52,29 @@ pub enum Device {
     Gpu,
 }
 
+/// A device name that is neither `cpu` nor `gpu`.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown device `{0}` (expected `cpu` or `gpu`)")]
+pub struct UnknownDevice(pub String);
+
 impl Device {
     /// Parse `cpu` or `gpu`.
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, UnknownDevice> {
         match s {
             "cpu" => Ok(Device::Cpu),
             "gpu" => Ok(Device::Gpu),
-            _ => Err(format!("unknown device `{s}` (expected `cpu` or `gpu`)")),
+            _ => Err(UnknownDevice(s.to_string())),
         }
     }
+}
+
+/// A render on the GPU: the adapter that made it and the render.
+#[cfg(feature = "gpu")]
+pub struct GpuRun {
+    /// The adapter's description ([`raylab_gpu::Gpu::describe`]).
+    pub adapter: String,
+    /// The render, with its counters when asked for.
+    pub render: raylab_gpu::GpuRender,
 }
 
 /// Render `scene` on the GPU, with counters when `counters` is set: the
@@ -71,25 +85,32 @@ pub fn gpu_render(
     scene: &raylab::scene::Scene,
     integrator: &IntegratorKind,
     counters: bool,
-) -> Result<(String, raylab_gpu::GpuRender)> {
+) -> Result<GpuRun, Error> {
     if *integrator != IntegratorKind::Whitted {
-        anyhow::bail!(
+        return Err(Error::Argument(format!(
             "the GPU port renders the Whitted integrator only; `{}` runs with --device cpu",
             integrator.name()
-        );
+        )));
     }
-    let gpu = raylab_gpu::Gpu::new().map_err(anyhow::Error::msg)?;
-    let out = gpu.render(scene, counters).map_err(anyhow::Error::msg)?;
-    Ok((gpu.describe(), out))
+    let gpu = raylab_gpu::Gpu::new()?;
+    let render = gpu.render(scene, counters)?;
+    Ok(GpuRun {
+        adapter: gpu.describe(),
+        render,
+    })
 }
 
+/// Without the `gpu` feature: an error saying so (there is no GPU render
+/// to return).
 #[cfg(not(feature = "gpu"))]
 pub fn gpu_render(
     _: &raylab::scene::Scene,
     _: &IntegratorKind,
     _: bool,
-) -> Result<(String, std::convert::Infallible)> {
-    anyhow::bail!("this raylab was built without the `gpu` feature: --device gpu is not available")
+) -> Result<std::convert::Infallible, Error> {
+    Err(Error::Argument(
+        "this raylab was built without the `gpu` feature: --device gpu is not available".into(),
+    ))
 }
 
 /// The flood-fill cache of a render, as the report shows it.
@@ -130,8 +151,8 @@ pub struct RenderReport {
     pub threads: usize,
     /// The integrator.
     pub integrator: IntegratorKind,
-    /// Adaptive sampler only: mean and largest rays per pixel.
-    pub adaptive_spp: Option<(f64, u32)>,
+    /// Adaptive sampler only: the rays it spent per pixel.
+    pub adaptive_spp: Option<AdaptiveSpp>,
     /// Primitives in the scene.
     pub primitives: usize,
     /// Triangles among them.
@@ -148,15 +169,51 @@ pub struct RenderReport {
     pub load_s: f64,
     /// Seconds to render the frame.
     pub render_s: f64,
-    /// Mean per-sample variance and mean variance of the pixel mean (over
-    /// pixels and channels); `None` for the adaptive sampler, which keeps
-    /// no variance.
-    pub variance: Option<(f64, f64)>,
+    /// The variances over pixels and channels; `None` for the adaptive
+    /// sampler, which keeps no variance.
+    pub variance: Option<Variances>,
     /// The reference image and the errors against it.
-    pub error: Option<(PathBuf, ImageMetrics)>,
+    pub error: Option<ReferenceMetrics>,
     /// GPU renders: the adapter, and where the time went.
     #[cfg(feature = "gpu")]
-    pub gpu: Option<(String, raylab_gpu::GpuTimes)>,
+    pub gpu: Option<GpuUsed>,
+}
+
+/// The rays the adaptive sampler spent per pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdaptiveSpp {
+    /// The mean over pixels.
+    pub mean: f64,
+    /// The largest.
+    pub max: u32,
+}
+
+/// A render's variances, means over pixels and channels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Variances {
+    /// The sample variance of one sample.
+    pub per_sample: f64,
+    /// The variance of the pixel mean.
+    pub of_mean: f64,
+}
+
+/// The errors of a render against a reference image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReferenceMetrics {
+    /// The reference image.
+    pub reference: PathBuf,
+    /// The errors against it.
+    pub metrics: ImageMetrics,
+}
+
+/// The GPU a render ran on, and where the time went.
+#[cfg(feature = "gpu")]
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpuUsed {
+    /// The adapter's description.
+    pub adapter: String,
+    /// Upload, shader build, kernel and readback times.
+    pub times: raylab_gpu::GpuTimes,
 }
 
 impl RenderReport {
@@ -165,15 +222,15 @@ impl RenderReport {
     /// (flood fill builds and warms up its cache here, timed apart from the
     /// frame), render one frame (timed), compare with the reference, and
     /// write the image and the samples-per-pixel map.
-    pub fn run(opts: &RenderOptions) -> Result<Self> {
+    pub fn run(opts: &RenderOptions) -> Result<Self, Error> {
         if ImageFormat::from_path(&opts.output).is_none() {
-            anyhow::bail!(
+            return Err(Error::Argument(format!(
                 "{}: unsupported output extension (expected .png or .exr)",
                 opts.output.display()
-            );
+            )));
         }
         if opts.threads == Some(0) {
-            anyhow::bail!("--threads must be at least 1");
+            return Err(Error::Argument("--threads must be at least 1".into()));
         }
         let t0 = Instant::now();
         let scene = load_scene(&opts.scene, &opts.overrides)?;
@@ -189,7 +246,7 @@ impl RenderReport {
         // the frame (one frame = its propagation steps and the render).
         let mut prepared = integrator
             .prepare(&scene)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", opts.scene.display()))?;
+            .map_err(|e| Error::scene(&opts.scene, Error::Render(e)))?;
         let t1 = Instant::now();
         #[cfg(feature = "gpu")]
         let mut gpu = None;
@@ -199,38 +256,44 @@ impl RenderReport {
                 let (film, RayCounts(counts)) =
                     prepared
                         .frame::<RayCounts>(&scene, opts.threads)
-                        .map_err(|e| anyhow::anyhow!("{}: {e}", opts.scene.display()))?;
+                        .map_err(|e| Error::scene(&opts.scene, Error::Render(e)))?;
                 drop(watch);
                 (film, counts)
             }
             Device::Gpu => {
-                let (adapter, out) = gpu_render(&scene, &integrator, true)
-                    .with_context(|| format!("{}", opts.scene.display()))?;
+                let run = gpu_render(&scene, &integrator, true)
+                    .map_err(|e| Error::scene(&opts.scene, e))?;
                 #[cfg(feature = "gpu")]
                 {
-                    let total = out.total();
-                    gpu = Some((adapter, out.times));
-                    (out.film, total)
+                    let total = run.render.total();
+                    gpu = Some(GpuUsed {
+                        adapter: run.adapter,
+                        times: run.render.times,
+                    });
+                    (run.render.film, total)
                 }
                 #[cfg(not(feature = "gpu"))]
-                match (adapter, out) {}
+                match run {}
             }
         };
         let render_s = t1.elapsed().as_secs_f64();
         let image = film.image();
         let error = match &reference {
             None => None,
-            Some((path, img)) => Some((
-                path.to_path_buf(),
-                compare(&image, img)
-                    .map_err(|e| anyhow::anyhow!("cannot compare with {}: {e}", path.display()))?,
-            )),
+            Some((path, img)) => Some(ReferenceMetrics {
+                reference: path.to_path_buf(),
+                metrics: compare(&image, img).map_err(|error| Error::Compare {
+                    test: None,
+                    reference: path.to_path_buf(),
+                    error,
+                })?,
+            }),
         };
         match ImageFormat::from_path(&opts.output) {
             Some(ImageFormat::Exr) => raylab::io::image::write_film_exr(&opts.output, &film),
             _ => write_image(&opts.output, &image),
         }
-        .with_context(|| format!("writing {}", opts.output.display()))?;
+        .map_err(|e| Error::writing(&opts.output, e))?;
         if let Some(map) = &opts.spp_map {
             let stem = map.with_extension("");
             let mut heat = Heatmap::new(
@@ -238,8 +301,11 @@ impl RenderReport {
                 film.count_array(),
             );
             heat.value_label = "camera rays traced".into();
-            heat.save(&stem)
-                .with_context(|| format!("writing {}.png", stem.display()))?;
+            heat.save(&stem).map_err(|e| {
+                let mut png = stem.clone().into_os_string();
+                png.push(".png");
+                Error::writing(png, e)
+            })?;
         }
 
         let sampler = scene.settings.sampler;
@@ -264,7 +330,10 @@ impl RenderReport {
             accel: scene.accel.kind(),
             threads: opts.threads.unwrap_or_else(rayon::current_num_threads),
             integrator,
-            adaptive_spp: sampler.is_adaptive().then(|| film.samples_per_pixel()),
+            adaptive_spp: sampler.is_adaptive().then(|| {
+                let (mean, max) = film.samples_per_pixel();
+                AdaptiveSpp { mean, max }
+            }),
             primitives: scene.prims.len(),
             triangles: scene.triangle_count(),
             point_lights: scene.lights.len(),
@@ -275,8 +344,10 @@ impl RenderReport {
             render_s,
             // The adaptive sampler's leaf values are not independent
             // samples: it keeps no variance.
-            variance: (!sampler.is_adaptive())
-                .then(|| (film.mean_sample_variance(), film.mean_variance_of_mean())),
+            variance: (!sampler.is_adaptive()).then(|| Variances {
+                per_sample: film.mean_sample_variance(),
+                of_mean: film.mean_variance_of_mean(),
+            }),
             error,
             #[cfg(feature = "gpu")]
             gpu,
@@ -311,7 +382,7 @@ impl fmt::Display for RenderReport {
             self.device_name(),
             self.integrator
         )?;
-        if let Some((mean, max)) = self.adaptive_spp {
+        if let Some(AdaptiveSpp { mean, max }) = self.adaptive_spp {
             writeln!(
                 f,
                 "adaptive   {mean:.3} rays per pixel on average (cost T = {mean:.3} × one centre \
@@ -353,7 +424,7 @@ impl fmt::Display for RenderReport {
             c.rays() as f64 / self.render_s / 1e6
         )?;
         #[cfg(feature = "gpu")]
-        if let Some((adapter, t)) = &self.gpu {
+        if let Some(GpuUsed { adapter, times: t }) = &self.gpu {
             writeln!(f, "device     GPU: {adapter}")?;
             writeln!(
                 f,
@@ -371,21 +442,29 @@ impl fmt::Display for RenderReport {
                 c.rays() as f64 / t.kernel / 1e6
             )?;
         }
-        if let Some((per_sample, of_mean)) = self.variance {
+        if let Some(Variances {
+            per_sample,
+            of_mean,
+        }) = self.variance
+        {
             writeln!(
                 f,
                 "variance   {per_sample:.6e} per sample, {of_mean:.6e} of the pixel mean (mean over \
                  pixels and channels)"
             )?;
         }
-        if let Some((path, m)) = &self.error {
+        if let Some(ReferenceMetrics {
+            reference,
+            metrics: m,
+        }) = &self.error
+        {
             writeln!(
                 f,
                 "error      MSE {:.6e}, relMSE {:.6e}, FLIP {:.6} against {}",
                 m.mse,
                 m.rel_mse,
                 m.flip.mean,
-                path.display()
+                reference.display()
             )?;
         }
         writeln!(f, "wrote      {}", self.output.display())

@@ -7,7 +7,7 @@
 use crate::analysis::spectrum::{
     check_sets_and_freq, summary_table, write_spectra, PatternSpectrum,
 };
-use anyhow::Result;
+use crate::Error;
 use raylab::sampler::Sampler;
 use std::fmt;
 use std::path::PathBuf;
@@ -41,8 +41,8 @@ pub struct SpectrumReport {
 impl SpectrumReport {
     /// Check the options, compute every sampler's periodogram and write
     /// the files.
-    pub fn run(opts: &SpectrumOptions) -> Result<Self> {
-        check_sets_and_freq(opts.sets, opts.freq).map_err(|e| anyhow::anyhow!("{e}"))?;
+    pub fn run(opts: &SpectrumOptions) -> Result<Self, Error> {
+        check_sets_and_freq(opts.sets, opts.freq)?;
         let spectra: Vec<_> = opts
             .samplers
             .iter()

@@ -17,7 +17,7 @@
 //! ratios with their numerator and denominator.
 
 use crate::analysis::plot::Heatmap;
-use anyhow::{Context, Result};
+use crate::{Error, FileOp};
 use ndarray::Array2;
 use raylab::accel::{AccelKind, BvhConfig, BvhStats};
 use raylab::integrator::{render_with_costs, Whitted};
@@ -165,9 +165,9 @@ pub struct AccelReport {
 
 /// Run the stats command: measure every accelerator, print the table to
 /// `w` and write the heatmaps. Returns the measurements.
-pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>> {
+pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>, Error> {
     if opts.threads == Some(0) {
-        anyhow::bail!("--threads must be at least 1");
+        return Err(Error::Argument("--threads must be at least 1".into()));
     }
     let overrides = Overrides {
         width: opts.width,
@@ -199,8 +199,7 @@ pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join("stats").join(&stem));
-    std::fs::create_dir_all(&out_dir)
-        .with_context(|| format!("cannot create {}", out_dir.display()))?;
+    std::fs::create_dir_all(&out_dir).map_err(|e| Error::io(&out_dir, FileOp::CreateFolder, e))?;
 
     let (width, height) = (scene.camera.width, scene.camera.height);
     writeln!(
@@ -212,20 +211,19 @@ pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>> {
         scene.triangle_count(),
         scene.lights.len(),
         load_seconds
-    )?;
+    )
+    .map_err(Error::Print)?;
 
     let mut reports = Vec::with_capacity(accels.len());
     for kind in accels {
         let t = Instant::now();
-        scene
-            .set_accel(kind)
-            .map_err(|e| anyhow::anyhow!("building {kind}: {e}"))?;
+        scene.set_accel(kind).map_err(Error::accel(kind))?;
         let build_seconds = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let (totals, pixels) = match opts.device {
+        let PixelCosts { totals, pixels } = match opts.device {
             super::render::Device::Cpu => {
                 let (_film, totals, pixels) = render_with_costs(&scene, &Whitted, opts.threads);
-                (totals, pixels)
+                PixelCosts { totals, pixels }
             }
             super::render::Device::Gpu => gpu_costs(&scene, w)?,
         };
@@ -244,26 +242,39 @@ pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>> {
             bvh: scene.accel.bvh_stats(&scene.prims),
             heatmaps,
         };
-        print_report(w, &report)?;
+        print_report(w, &report).map_err(Error::Print)?;
         reports.push(report);
     }
-    writeln!(w, "Heatmaps (PNG + SVG) in {}", out_dir.display())?;
+    writeln!(w, "Heatmaps (PNG + SVG) in {}", out_dir.display()).map_err(Error::Print)?;
     Ok(reports)
 }
 
 /// The render with counters on the GPU: totals and per-pixel counters,
 /// after a line naming the adapter.
 #[cfg(feature = "gpu")]
-fn gpu_costs(scene: &Scene, w: &mut dyn Write) -> Result<(Counters, Vec<Counters>)> {
-    let (adapter, out) =
-        super::render::gpu_render(scene, &raylab::integrator::IntegratorKind::Whitted, true)?;
-    writeln!(w, "GPU: {adapter}, kernel {:.4} s", out.times.kernel)?;
-    Ok((out.total(), out.pixel_counters))
+fn gpu_costs(scene: &Scene, w: &mut dyn Write) -> Result<PixelCosts, Error> {
+    let run = super::render::gpu_render(scene, &raylab::integrator::IntegratorKind::Whitted, true)?;
+    writeln!(
+        w,
+        "GPU: {}, kernel {:.4} s",
+        run.adapter, run.render.times.kernel
+    )
+    .map_err(Error::Print)?;
+    Ok(PixelCosts {
+        totals: run.render.total(),
+        pixels: run.render.pixel_counters,
+    })
 }
 
 #[cfg(not(feature = "gpu"))]
-fn gpu_costs(scene: &Scene, _: &mut dyn Write) -> Result<(Counters, Vec<Counters>)> {
-    match super::render::gpu_render(scene, &raylab::integrator::IntegratorKind::Whitted, true)?.1 {}
+fn gpu_costs(scene: &Scene, _: &mut dyn Write) -> Result<PixelCosts, Error> {
+    match super::render::gpu_render(scene, &raylab::integrator::IntegratorKind::Whitted, true)? {}
+}
+
+/// A render's counters: summed over the image, and per pixel.
+struct PixelCosts {
+    totals: Counters,
+    pixels: Vec<Counters>,
 }
 
 /// Reads one cost out of a pixel's counters.
@@ -276,7 +287,7 @@ fn write_heatmaps(
     pixels: &[Counters],
     width: u32,
     height: u32,
-) -> Result<Vec<PathBuf>> {
+) -> Result<Vec<PathBuf>, Error> {
     let shape = (height as usize, width as usize);
     let maps: [(&str, &str, CostOf); 2] = [
         ("nodes", "nodes visited", |c| c.nodes_visited),
@@ -285,7 +296,9 @@ fn write_heatmaps(
     let mut stems = Vec::new();
     for (suffix, what, get) in maps {
         let data = Array2::from_shape_vec(shape, pixels.iter().map(|c| get(c) as f64).collect())
-            .context("per-pixel costs do not match the image size")?;
+            .map_err(|e| {
+                Error::Internal(format!("per-pixel costs do not match the image size: {e}"))
+            })?;
         let mut map = Heatmap::new(format!("{kind}: {what} per pixel"), data);
         // Costs span decades (background vs silhouettes), hence log scale;
         // a map with no positive value (brute force visits no nodes) cannot

@@ -5,8 +5,8 @@
 //! top-layer [`crate::report`] (with the `embree` feature); the checking
 //! itself is [`crate::validate`].
 
-use crate::validate::{validate, Input, Options, Report};
-use anyhow::Result;
+use crate::validate::{validate, Input, ValidationOptions, ValidationReport};
+use crate::Error;
 use std::fmt;
 use std::path::PathBuf;
 
@@ -18,7 +18,7 @@ pub struct ValidateOptions {
     /// A scene file to check: its bounded primitives and its camera.
     pub scene: Option<PathBuf>,
     /// Ray sets, accelerators, oracle configuration and tolerances.
-    pub options: Options,
+    pub options: ValidationOptions,
     /// Write the worst cases to this CSV file.
     pub csv: Option<PathBuf>,
     /// Folder for the histograms and the bar chart (PNG + SVG).
@@ -29,30 +29,42 @@ pub struct ValidateOptions {
 #[derive(Clone, Debug)]
 pub struct ValidateReport {
     /// The comparison of every ray set.
-    pub report: Report,
+    pub report: ValidationReport,
     /// The options it ran with (the tolerances judge it).
-    pub options: Options,
+    pub options: ValidationOptions,
     /// The CSV of worst cases written.
     pub csv: Option<PathBuf>,
-    /// The figure folder and the stems written there.
-    pub figures: Option<(PathBuf, Vec<String>)>,
+    /// The figures written, if a folder was given.
+    pub figures: Option<FiguresWritten>,
+}
+
+/// Figures written into a folder.
+#[derive(Clone, Debug)]
+pub struct FiguresWritten {
+    /// The folder.
+    pub dir: PathBuf,
+    /// The stems written there (each as PNG and SVG).
+    pub stems: Vec<String>,
 }
 
 impl ValidateReport {
     /// Load the mesh or scene, trace every ray set both ways, and write
     /// the CSV and figures asked for.
-    pub fn run(opts: &ValidateOptions) -> Result<Self> {
+    pub fn run(opts: &ValidateOptions) -> Result<Self, Error> {
         let input = match (&opts.mesh, &opts.scene) {
             (Some(mesh), _) => Input::from_mesh(mesh)?,
             (None, Some(scene)) => Input::from_scene(scene)?,
-            (None, None) => anyhow::bail!("give --mesh FILE or --scene FILE"),
+            (None, None) => return Err(Error::Argument("give --mesh FILE or --scene FILE".into())),
         };
         let report = validate(&input, &opts.options)?;
         if let Some(csv) = &opts.csv {
             report.write_csv(csv)?;
         }
         let figures = match &opts.out {
-            Some(dir) => Some((dir.clone(), report.write_figures(dir, "validate-")?)),
+            Some(dir) => Some(FiguresWritten {
+                dir: dir.clone(),
+                stems: report.write_figures(dir, "validate-")?,
+            }),
             None => None,
         };
         Ok(Self {
@@ -69,10 +81,10 @@ impl ValidateReport {
     }
 
     /// `Ok` when no tolerance is broken, else an error listing them.
-    pub fn check(&self) -> Result<()> {
+    pub fn check(&self) -> Result<(), Error> {
         let breaches = self.breaches();
         if !breaches.is_empty() {
-            anyhow::bail!("tolerances exceeded:\n  {}", breaches.join("\n  "));
+            return Err(Error::Tolerances { breaches });
         }
         Ok(())
     }
@@ -89,9 +101,9 @@ impl fmt::Display for ValidateReport {
         if let Some(csv) = &self.csv {
             writeln!(f, "wrote      {}", csv.display())?;
         }
-        if let Some((dir, stems)) = &self.figures {
-            for stem in stems {
-                writeln!(f, "figure     {}/{stem}.{{png,svg}}", dir.display())?;
+        if let Some(figures) = &self.figures {
+            for stem in &figures.stems {
+                writeln!(f, "figure     {}/{stem}.{{png,svg}}", figures.dir.display())?;
             }
         }
         Ok(())

@@ -50,7 +50,7 @@ pub struct Answers {
 
 /// Where the first hit that one side missed lies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Place {
+pub enum HitPlace {
     /// Within [`EDGE_BAND`] tolerances of one triangle edge.
     Edge,
     /// Within the band of two edges: at a vertex.
@@ -69,26 +69,26 @@ pub enum Place {
     Elsewhere,
 }
 
-impl Place {
-    pub const ALL: [Place; 5] = [
-        Place::Edge,
-        Place::Vertex,
-        Place::Grazing,
-        Place::Origin,
-        Place::Elsewhere,
+impl HitPlace {
+    pub const ALL: [HitPlace; 5] = [
+        HitPlace::Edge,
+        HitPlace::Vertex,
+        HitPlace::Grazing,
+        HitPlace::Origin,
+        HitPlace::Elsewhere,
     ];
 
     pub fn name(self) -> &'static str {
         match self {
-            Place::Edge => "edge",
-            Place::Vertex => "vertex",
-            Place::Grazing => "grazing",
-            Place::Origin => "origin",
-            Place::Elsewhere => "elsewhere",
+            HitPlace::Edge => "edge",
+            HitPlace::Vertex => "vertex",
+            HitPlace::Grazing => "grazing",
+            HitPlace::Origin => "origin",
+            HitPlace::Elsewhere => "elsewhere",
         }
     }
 
-    /// Its position in [`Place::ALL`].
+    /// Its position in [`HitPlace::ALL`].
     pub fn index(self) -> usize {
         self as usize
     }
@@ -104,7 +104,7 @@ pub enum Leak {
 
 /// What kind of disagreement.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kind {
+pub enum DisagreementKind {
     /// One side hit, the other missed.
     HitMiss,
     /// Both hit, different primitives at different t.
@@ -123,8 +123,8 @@ pub enum Outcome {
         coincident: bool,
     },
     Disagree {
-        kind: Kind,
-        place: Place,
+        kind: DisagreementKind,
+        place: HitPlace,
         leak: Leak,
     },
 }
@@ -168,7 +168,7 @@ impl Verdict {
         matches!(
             self.outcome,
             Outcome::Disagree {
-                place: Place::Elsewhere,
+                place: HitPlace::Elsewhere,
                 ..
             }
         ) || self.any_hit_unexplained
@@ -273,24 +273,24 @@ fn edge_distances(t: &Triangle, h: &PrimHit) -> [f32; 3] {
 /// ray's origin (within the rounding of its coordinates), at an edge or
 /// vertex (triangles, within [`EDGE_BAND`] t tolerances), grazing, or
 /// elsewhere.
-pub fn place(tol: &Tolerances, prims: &[Primitive], ray: &Ray, p: u32, h: &PrimHit) -> Place {
+pub fn place(tol: &Tolerances, prims: &[Primitive], ray: &Ray, p: u32, h: &PrimHit) -> HitPlace {
     let prim = &prims[p as usize];
     if h.t <= floor_tolerance(ray, prim, h) {
-        return Place::Origin;
+        return HitPlace::Origin;
     }
     let cos = incidence(prims, ray, p, h);
     if let Shape::Triangle(t) = &prims[p as usize].shape {
         let band = EDGE_BAND * t_tolerance(tol, ray, prim, h, cos) * ray.dir.length();
         match edge_distances(t, h).iter().filter(|&&d| d < band).count() {
             0 => {}
-            1 => return Place::Edge,
-            _ => return Place::Vertex,
+            1 => return HitPlace::Edge,
+            _ => return HitPlace::Vertex,
         }
     }
     if cos < tol.grazing_cos() {
-        Place::Grazing
+        HitPlace::Grazing
     } else {
-        Place::Elsewhere
+        HitPlace::Elsewhere
     }
 }
 
@@ -391,10 +391,10 @@ pub fn classify(tol: &Tolerances, prims: &[Primitive], ray: &Ray, a: &Answers) -
             // from edges, two faces at the same t are coincident.
             let at_edge = matches!(
                 place(tol, prims, ray, o.prim, &o.hit),
-                Place::Edge | Place::Vertex
+                HitPlace::Edge | HitPlace::Vertex
             ) || matches!(
                 place(tol, prims, ray, e.prim, &e.hit),
-                Place::Edge | Place::Vertex
+                HitPlace::Edge | HitPlace::Vertex
             );
             v.outcome = Outcome::Tie {
                 coincident: !at_edge,
@@ -410,9 +410,9 @@ pub fn classify(tol: &Tolerances, prims: &[Primitive], ray: &Ray, a: &Answers) -
                 (None, None) => unreachable!("handled above"),
             };
             let kind = if ours.is_some() && theirs.is_some() {
-                Kind::Prim
+                DisagreementKind::Prim
             } else {
-                Kind::HitMiss
+                DisagreementKind::HitMiss
             };
             v.cos = incidence(prims, ray, first.prim, &first.hit);
             v.outcome = Outcome::Disagree {
@@ -429,7 +429,7 @@ pub fn classify(tol: &Tolerances, prims: &[Primitive], ray: &Ray, a: &Answers) -
     if any_hit_differs || inconsistent {
         let borderline = matches!(
             v.outcome,
-            Outcome::Disagree { place, .. } if place != Place::Elsewhere
+            Outcome::Disagree { place, .. } if place != HitPlace::Elsewhere
         );
         if borderline && !inconsistent {
             v.any_hit_explained = true;

@@ -13,10 +13,11 @@ pub mod compare;
 pub mod rays;
 pub mod report;
 
-pub use compare::{classify, Answer, Answers, Outcome, Place, Verdict};
+pub use compare::{classify, Answer, Answers, HitPlace, Outcome, Verdict};
 pub use rays::{RaySet, Topology};
-pub use report::{Case, Report, SetReport, Tally};
+pub use report::{Case, SetReport, Tally, ValidationReport};
 
+use crate::Error;
 use raylab::accel::embree::EmbreeAccel;
 use raylab::accel::{Accel, AccelKind, Accelerator, BvhConfig, EmbreeConfig};
 use raylab::camera::Camera;
@@ -165,7 +166,7 @@ pub const BRUTE_LIMIT: usize = 5000;
 
 /// How to validate.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Options {
+pub struct ValidationOptions {
     /// Rays per set (a set may hold fewer: see [`rays::inside_mesh`]).
     pub rays: usize,
     pub seed: u64,
@@ -180,7 +181,7 @@ pub struct Options {
     pub any_hit: bool,
 }
 
-impl Default for Options {
+impl Default for ValidationOptions {
     fn default() -> Self {
         Self {
             rays: 10_000,
@@ -213,7 +214,7 @@ pub fn default_accels(n: usize) -> Vec<AccelKind> {
 pub fn ray_sets(
     input: &Input,
     topology: &Topology,
-    opts: &Options,
+    opts: &ValidationOptions,
     first_hit: impl Fn(&Ray) -> Option<f32> + Sync,
 ) -> Vec<RaySet> {
     let g = rays::Geometry {
@@ -288,14 +289,23 @@ pub fn trace_both(
     }
 }
 
+/// One ray set compared on one accelerator.
+#[derive(Clone, Debug)]
+pub struct SetComparison {
+    /// The set's tally.
+    pub report: SetReport,
+    /// Its worst cases, worst first.
+    pub worst: Vec<Case>,
+}
+
 /// Compare one ray set on one accelerator: the tally and the worst cases.
 pub fn compare_set(
     input: &Input,
     set: &RaySet,
     accel: &Accelerator,
     embree: &EmbreeAccel,
-    opts: &Options,
-) -> (SetReport, Vec<Case>) {
+    opts: &ValidationOptions,
+) -> SetComparison {
     let tol = &opts.tolerances;
     let prims = &input.prims;
     let answers: Vec<Answers> = set
@@ -328,14 +338,14 @@ pub fn compare_set(
         }
     }
     keep_worst(&mut cases, opts.worst);
-    (
-        SetReport {
+    SetComparison {
+        report: SetReport {
             set: set.name,
             accel: accel_name,
             tally,
         },
-        cases,
-    )
+        worst: cases,
+    }
 }
 
 fn keep_worst(cases: &mut Vec<Case>, k: usize) {
@@ -348,10 +358,9 @@ fn keep_worst(cases: &mut Vec<Case>, k: usize) {
 
 /// Validate an input: build Embree and each accelerator, generate the ray
 /// sets, trace, compare, tally. Fails only if Embree cannot be set up.
-pub fn validate(input: &Input, opts: &Options) -> anyhow::Result<Report> {
+pub fn validate(input: &Input, opts: &ValidationOptions) -> Result<ValidationReport, Error> {
     let ids: Vec<u32> = (0..input.prims.len() as u32).collect();
-    let embree = EmbreeAccel::build(&input.prims, &ids, opts.embree)
-        .map_err(|e| anyhow::anyhow!("Embree: {e}"))?;
+    let embree = EmbreeAccel::build(&input.prims, &ids, opts.embree).map_err(Error::Oracle)?;
     let kinds = if opts.accels.is_empty() {
         default_accels(input.prims.len())
     } else {
@@ -364,7 +373,7 @@ pub fn validate(input: &Input, opts: &Options) -> anyhow::Result<Report> {
         &input.prims,
         ids.clone(),
     )
-    .map_err(|e| anyhow::anyhow!(e))?;
+    .map_err(Error::accel(AccelKind::Bvh(BvhConfig::default())))?;
     let first_hit = |r: &Ray| {
         bvh.intersect(
             &input.prims,
@@ -378,16 +387,16 @@ pub fn validate(input: &Input, opts: &Options) -> anyhow::Result<Report> {
     let mut reports = Vec::new();
     let mut worst = Vec::new();
     for kind in kinds {
-        let accel = Accelerator::build(kind, &input.prims, ids.clone())
-            .map_err(|e| anyhow::anyhow!("{kind}: {e}"))?;
+        let accel =
+            Accelerator::build(kind, &input.prims, ids.clone()).map_err(Error::accel(kind))?;
         for set in &sets {
-            let (r, cases) = compare_set(input, set, &accel, &embree, opts);
-            reports.push(r);
-            worst.extend(cases);
+            let c = compare_set(input, set, &accel, &embree, opts);
+            reports.push(c.report);
+            worst.extend(c.worst);
         }
     }
     keep_worst(&mut worst, opts.worst);
-    Ok(Report {
+    Ok(ValidationReport {
         input: input.name.clone(),
         primitives: input.prims.len(),
         triangles: input.triangle_count(),

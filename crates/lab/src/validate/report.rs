@@ -4,10 +4,11 @@
 //! disagreements, and the list of tolerance breaches that decides the exit
 //! status.
 
-use super::compare::{Answers, Kind, Leak, Outcome, Place, Verdict};
+use super::compare::{Answers, DisagreementKind, HitPlace, Leak, Outcome, Verdict};
 use super::Tolerances;
-use crate::analysis::plot::{BarChart, BarSeries, Histogram, Scale};
-use raylab::io::write_atomically;
+use crate::analysis::plot::{AxisScale, BarChart, BarSeries, Histogram};
+use crate::{Error, FileOp};
+use raylab::io::{write_atomically, Place};
 use raylab::math::Ray;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -23,10 +24,10 @@ pub struct Tally {
     pub tie_edge: u64,
     /// Different primitives at equal t away from edges: coincident faces.
     pub tie_coincident: u64,
-    /// Hit/miss disagreements by [`Place`] (in [`Place::ALL`] order).
-    pub hit_miss: [u64; Place::ALL.len()],
-    /// Different primitives at different t, by [`Place`] of the first.
-    pub prim: [u64; Place::ALL.len()],
+    /// Hit/miss disagreements by [`HitPlace`] (in [`HitPlace::ALL`] order).
+    pub hit_miss: [u64; HitPlace::ALL.len()],
+    /// Different primitives at different t, by [`HitPlace`] of the first.
+    pub prim: [u64; HitPlace::ALL.len()],
     /// Edge and vertex disagreements where raylab missed (Embree was
     /// watertight) and where Embree missed.
     pub edge_leaks: (u64, u64),
@@ -58,10 +59,10 @@ impl Tally {
             Outcome::Disagree { kind, place, leak } => {
                 let k = place.index();
                 match kind {
-                    Kind::HitMiss => self.hit_miss[k] += 1,
-                    Kind::Prim => self.prim[k] += 1,
+                    DisagreementKind::HitMiss => self.hit_miss[k] += 1,
+                    DisagreementKind::Prim => self.prim[k] += 1,
                 }
-                if matches!(place, Place::Edge | Place::Vertex) {
+                if matches!(place, HitPlace::Edge | HitPlace::Vertex) {
                     match leak {
                         Leak::Raylab => self.edge_leaks.0 += 1,
                         Leak::Embree => self.edge_leaks.1 += 1,
@@ -94,7 +95,7 @@ impl Tally {
         self.agree += o.agree;
         self.tie_edge += o.tie_edge;
         self.tie_coincident += o.tie_coincident;
-        for k in 0..Place::ALL.len() {
+        for k in 0..HitPlace::ALL.len() {
             self.hit_miss[k] += o.hit_miss[k];
             self.prim[k] += o.prim[k];
         }
@@ -110,23 +111,23 @@ impl Tally {
         self.normal_angle.extend_from_slice(&o.normal_angle);
     }
 
-    /// Disagreements (hit/miss and primitive) at a [`Place`].
-    pub fn disagreements_at(&self, place: Place) -> u64 {
+    /// Disagreements (hit/miss and primitive) at a [`HitPlace`].
+    pub fn disagreements_at(&self, place: HitPlace) -> u64 {
         let k = place.index();
         self.hit_miss[k] + self.prim[k]
     }
 
     /// Disagreements rounding explains: at edges, vertices, or grazing.
     pub fn borderline(&self) -> u64 {
-        self.disagreements_at(Place::Edge)
-            + self.disagreements_at(Place::Vertex)
-            + self.disagreements_at(Place::Grazing)
+        self.disagreements_at(HitPlace::Edge)
+            + self.disagreements_at(HitPlace::Vertex)
+            + self.disagreements_at(HitPlace::Grazing)
     }
 
     /// Everything the tolerances count against: disagreements elsewhere,
     /// unexplained any-hit differences, t, (u, v) and normal breaches.
     pub fn unexplained(&self) -> u64 {
-        self.disagreements_at(Place::Elsewhere)
+        self.disagreements_at(HitPlace::Elsewhere)
             + self.any_hit_unexplained
             + self.t_breaches
             + self.uv_breaches
@@ -202,8 +203,8 @@ impl Case {
             Outcome::Disagree { kind, place, leak } => format!(
                 "{} at {}, {} leaked",
                 match kind {
-                    Kind::HitMiss => "hit/miss",
-                    Kind::Prim => "primitive",
+                    DisagreementKind::HitMiss => "hit/miss",
+                    DisagreementKind::Prim => "primitive",
                 },
                 place.name(),
                 match leak {
@@ -217,7 +218,7 @@ impl Case {
 
 /// The whole run: a tally per (set, accelerator), the worst cases.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Report {
+pub struct ValidationReport {
     /// What was validated (file name).
     pub input: String,
     /// Primitives compared (bounded ones; planes are left out).
@@ -239,7 +240,7 @@ fn fmt_e(x: f64) -> String {
     }
 }
 
-impl Report {
+impl ValidationReport {
     /// Every set and accelerator merged.
     pub fn overall(&self) -> Tally {
         let mut t = Tally::default();
@@ -262,7 +263,7 @@ impl Report {
                      {} (u,v), {} normal > {:.1e} rad",
                     t.unexplained(),
                     tol.max_unexplained,
-                    t.disagreements_at(Place::Elsewhere),
+                    t.disagreements_at(HitPlace::Elsewhere),
                     t.any_hit_unexplained,
                     t.t_breaches,
                     t.uv_breaches,
@@ -312,11 +313,11 @@ impl Report {
                 t.hits(),
                 t.tie_edge,
                 t.tie_coincident,
-                t.disagreements_at(Place::Edge),
-                t.disagreements_at(Place::Vertex),
-                t.disagreements_at(Place::Grazing),
-                t.disagreements_at(Place::Origin),
-                t.disagreements_at(Place::Elsewhere),
+                t.disagreements_at(HitPlace::Edge),
+                t.disagreements_at(HitPlace::Vertex),
+                t.disagreements_at(HitPlace::Grazing),
+                t.disagreements_at(HitPlace::Origin),
+                t.disagreements_at(HitPlace::Elsewhere),
                 t.edge_leaks.0,
                 t.edge_leaks.1,
                 t.any_hit_explained,
@@ -375,9 +376,10 @@ impl Report {
     }
 
     /// Write the worst cases as CSV (atomically).
-    pub fn write_csv(&self, path: &Path) -> anyhow::Result<()> {
+    pub fn write_csv(&self, path: &Path) -> Result<(), Error> {
+        let csv_error = |op, e| Error::csv(path, Place::File, op, e);
         write_atomically(path, |tmp| {
-            let mut w = csv::Writer::from_path(tmp)?;
+            let mut w = csv::Writer::from_path(tmp).map_err(|e| csv_error(FileOp::Create, e))?;
             w.write_record([
                 "set",
                 "accel",
@@ -397,7 +399,8 @@ impl Report {
                 "dt_over_tolerance",
                 "normal_angle",
                 "cos_incidence",
-            ])?;
+            ])
+            .map_err(|e| csv_error(FileOp::Write, e))?;
             let opt = |x: Option<f32>| x.map_or(String::new(), |v| format!("{v:e}"));
             for c in &self.worst {
                 let (o, d) = (c.ray.origin, c.ray.dir);
@@ -422,9 +425,10 @@ impl Report {
                     opt(c.verdict.t_ratio),
                     opt(c.verdict.normal_angle),
                     format!("{:e}", c.verdict.cos),
-                ])?;
+                ])
+                .map_err(|e| csv_error(FileOp::Write, e))?;
             }
-            w.flush()?;
+            w.flush().map_err(|e| Error::io(path, FileOp::Write, e))?;
             Ok(())
         })
     }
@@ -434,9 +438,8 @@ impl Report {
     /// a log axis cannot show it), and a bar chart of disagreements by
     /// place per ray set (only when there is one). Returns the stems
     /// written.
-    pub fn write_figures(&self, dir: &Path, stem_prefix: &str) -> anyhow::Result<Vec<String>> {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| anyhow::anyhow!("{}: cannot create folder: {e}", dir.display()))?;
+    pub fn write_figures(&self, dir: &Path, stem_prefix: &str) -> Result<Vec<String>, Error> {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, FileOp::CreateFolder, e))?;
         let all = self.overall();
         let mut stems = Vec::new();
         for (name, values, what) in [
@@ -460,7 +463,7 @@ impl Report {
                 40,
             );
             h.y_label = "same-primitive hits".into();
-            h.y_scale = Scale::Log10;
+            h.y_scale = AxisScale::Log10;
             let stem = format!("{stem_prefix}{name}");
             h.save(&dir.join(&stem))?;
             stems.push(stem);
@@ -473,7 +476,7 @@ impl Report {
             "rays (all accelerators)",
             sets.iter().map(|s| s.to_string()).collect(),
         );
-        for place in Place::ALL {
+        for place in HitPlace::ALL {
             let values = sets
                 .iter()
                 .map(|&set| {
@@ -489,7 +492,7 @@ impl Report {
         // A log axis shows counts from 1 to 10⁴ alike; with no
         // disagreement at all there is nothing to draw.
         if bars.series.iter().flat_map(|s| &s.values).any(|&v| v > 0.0) {
-            bars.y_scale = Scale::Log10;
+            bars.y_scale = AxisScale::Log10;
             let stem = format!("{stem_prefix}disagreements");
             bars.save(&dir.join(&stem))?;
             stems.push(stem);

@@ -22,6 +22,7 @@ pub use volume::{BoundingEllipsoid, BoundingSphere, BoundingVolume};
 pub use wide::{has_avx2, Bvh4, Bvh8, WideBvh};
 
 use super::Accel;
+use crate::error::ParseError;
 use crate::shape::{PreparedRay, PrimArrays, PrimHit, Primitive};
 use crate::stats::{NoStats, Stats};
 use std::fmt;
@@ -580,9 +581,14 @@ pub const BVH_GRAMMAR: &str = "`bvh:<volume>[:<builder>[:<leaf size>]]` with <vo
      means `bvh:aabb:sah`, the binary box tree";
 
 impl FromStr for BvhConfig {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        let bad = |what: String| format!("bad BVH name `{s}`: {what}; expected {BVH_GRAMMAR}");
+    type Err = ParseError;
+    fn from_str(s: &str) -> Result<Self, ParseError> {
+        let bad = |problem: String| ParseError::Malformed {
+            what: "BVH name",
+            given: s.to_string(),
+            problem,
+            expected: BVH_GRAMMAR,
+        };
         match s {
             "bvh2" => return Ok(BvhConfig::default()),
             "bvh" => return Err(bad("plain `bvh` names the fastest tree, `bvh8`".into())),

@@ -2,6 +2,7 @@
 //! `embree[:low|medium|high][+robust]`: Embree's build quality and its
 //! robust-traversal flag. Part of [`crate::accel::embree`].
 
+use crate::error::ParseError;
 use embree4_sys as sys;
 use std::fmt;
 use std::str::FromStr;
@@ -61,9 +62,13 @@ pub struct EmbreeConfig {
 pub const EMBREE_GRAMMAR: &str = "`embree[:low|medium|high][+robust]`";
 
 impl FromStr for EmbreeConfig {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        let bad = || format!("unknown accelerator `{s}` (expected {EMBREE_GRAMMAR})");
+    type Err = ParseError;
+    fn from_str(s: &str) -> Result<Self, ParseError> {
+        let bad = || ParseError::Unknown {
+            what: "accelerator",
+            given: s.to_string(),
+            expected: EMBREE_GRAMMAR.into(),
+        };
         let rest = s.strip_prefix("embree").ok_or_else(bad)?;
         let (rest, robust) = match rest.strip_suffix("+robust") {
             Some(r) => (r, true),
@@ -124,7 +129,10 @@ mod tests {
             "bvh",
         ] {
             let e = bad.parse::<EmbreeConfig>().unwrap_err();
-            assert!(e.contains(bad) && e.contains("embree[:low"), "{e}");
+            assert!(
+                e.to_string().contains(bad) && e.to_string().contains("embree[:low"),
+                "{e}"
+            );
         }
     }
 }

@@ -169,13 +169,15 @@ pub enum Visibility {
 }
 
 impl Visibility {
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, crate::ParseError> {
         match s {
             "interior" => Ok(Self::Interior),
             "full" => Ok(Self::Full),
-            _ => Err(format!(
-                "unknown visibility `{s}` (expected `interior` or `full`)"
-            )),
+            _ => Err(crate::ParseError::Unknown {
+                what: "visibility",
+                given: s.to_string(),
+                expected: "`interior` or `full`".into(),
+            }),
         }
     }
 

@@ -91,10 +91,11 @@
 
 pub mod spec;
 
-pub use spec::{load_spec, parse_spec, ParamSpec, Spec, Target};
+pub use spec::{load_spec, parse_spec, OptimizeTarget, ParamSpec, Spec};
 
 use super::render::{render_gradients, GradientRender};
 use super::DiffError;
+use crate::error::ParseError;
 use crate::film::LinearImage;
 use crate::math::SplitMix64;
 use crate::sampler::Sampler;
@@ -121,14 +122,16 @@ pub const RELATIVE_EPSILON: f32 = 0.01;
 
 impl Loss {
     /// `l2`, `l1` or `relative_l2`.
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, ParseError> {
         match s {
             "l2" => Ok(Self::L2),
             "l1" => Ok(Self::L1),
             "relative_l2" => Ok(Self::RelativeL2),
-            _ => Err(format!(
-                "unknown loss `{s}` (expected `l2`, `l1` or `relative_l2`)"
-            )),
+            _ => Err(ParseError::Unknown {
+                what: "loss",
+                given: s.to_string(),
+                expected: "`l2`, `l1` or `relative_l2`".into(),
+            }),
         }
     }
 
@@ -344,8 +347,8 @@ impl Problem {
         };
         let start = Instant::now();
         problem.target = match &problem.spec.target {
-            Target::Image(path) => crate::io::image::read_image(path)?,
-            Target::Values { values, sampler } => {
+            OptimizeTarget::Image(path) => crate::io::image::read_image(path)?,
+            OptimizeTarget::Values { values, sampler } => {
                 let mut desc = problem.spec.source.description.clone();
                 for &(p, v) in values {
                     desc.set_value(p, v);
@@ -398,7 +401,7 @@ impl Problem {
         self.spec
             .source
             .text_with(&self.description_at(theta), &fields)
-            .map_err(DiffError::Optimize)
+            .map_err(DiffError::from)
     }
 
     /// The scene with parameters `theta`, and its description.
@@ -421,11 +424,7 @@ impl Problem {
         desc.settings.sampler = sampler;
         desc.settings.seed = seed;
         let scene = self.spec.source.build_from(&desc)?;
-        let (film, _) = self
-            .spec
-            .integrator
-            .render::<NoStats>(&scene, threads)
-            .map_err(DiffError::Render)?;
+        let (film, _) = self.spec.integrator.render::<NoStats>(&scene, threads)?;
         Ok(film.box_image())
     }
 
@@ -467,11 +466,7 @@ impl Problem {
         })?;
         scene.settings.seed = seed_of(self.spec.seed, u64::from(i), PRIMAL);
         scene.settings.sampler = self.spec.image_sampler;
-        let (film, _) = self
-            .spec
-            .integrator
-            .render::<NoStats>(&scene, threads)
-            .map_err(DiffError::Render)?;
+        let (film, _) = self.spec.integrator.render::<NoStats>(&scene, threads)?;
         let (loss, dl) = self.spec.loss.evaluate(&film.box_image(), &self.target);
         let gradient: Vec<f64> = grads
             .planes

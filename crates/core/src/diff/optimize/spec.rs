@@ -7,6 +7,7 @@
 use super::{Loss, Method, OptimizerSettings};
 use crate::diff::params::resolve;
 use crate::diff::{self};
+use crate::error::ParseError;
 use crate::integrator::IntegratorKind;
 use crate::io::scene_file::{Overrides, SceneSource};
 use crate::io::{line_col, InputError, Place};
@@ -84,7 +85,7 @@ struct ParamFile {
 
 /// What the renders are compared with.
 #[derive(Clone, Debug)]
-pub enum Target {
+pub enum OptimizeTarget {
     /// An image file (.exr or .png) of the spec's size.
     Image(PathBuf),
     /// The scene with these values, rendered with `sampler` before the
@@ -140,7 +141,7 @@ pub struct Spec {
     /// Iterations whose parameters are drawn beside the target.
     pub snapshots: Vec<u32>,
     pub loss: Loss,
-    pub target: Target,
+    pub target: OptimizeTarget,
     pub optimizer: OptimizerSettings,
     pub params: Vec<ParamSpec>,
 }
@@ -150,7 +151,7 @@ impl Spec {
     /// render of known values (a parameter the target does not set keeps
     /// the scene file's value).
     pub fn truth(&self) -> Option<Vec<f32>> {
-        let Target::Values { values, .. } = &self.target else {
+        let OptimizeTarget::Values { values, .. } = &self.target else {
             return None;
         };
         Some(
@@ -201,21 +202,21 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<Spec, InputError> {
     let base = path.parent().unwrap_or(Path::new(""));
 
     let scene = base.join(file.scene.get_ref());
-    let named = |s: &Spanned<String>, parse: fn(&str) -> Result<_, String>| {
-        parse(s.get_ref()).map_err(|e| at(s.span(), e))
+    let named = |s: &Spanned<String>, parse: fn(&str) -> Result<_, ParseError>| {
+        parse(s.get_ref()).map_err(|e| at(s.span(), e.to_string()))
     };
     let integrator: IntegratorKind = match &file.integrator {
         Some(s) => named(s, IntegratorKind::parse)?,
         None => IntegratorKind::Whitted,
     };
     let visibility = match &file.visibility {
-        Some(s) => diff::Visibility::parse(s.get_ref()).map_err(|e| at(s.span(), e))?,
+        Some(s) => diff::Visibility::parse(s.get_ref()).map_err(|e| at(s.span(), e.to_string()))?,
         None => diff::Visibility::Full,
     };
     let sampler_of =
         |s: &Option<Spanned<String>>, default: Sampler| -> Result<Sampler, InputError> {
             let Some(s) = s else { return Ok(default) };
-            let sampler = Sampler::parse(s.get_ref()).map_err(|e| at(s.span(), e))?;
+            let sampler = Sampler::parse(s.get_ref()).map_err(|e| at(s.span(), e.to_string()))?;
             if let Sampler::Adaptive { .. } = sampler {
                 return Err(at(
                     s.span(),
@@ -266,7 +267,7 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<Spec, InputError> {
         }
     };
     let loss = match &file.loss {
-        Some(s) => Loss::parse(s.get_ref()).map_err(|e| at(s.span(), e))?,
+        Some(s) => Loss::parse(s.get_ref()).map_err(|e| at(s.span(), e.to_string()))?,
         None => Loss::L2,
     };
     let optimizer = optimizer_settings(file.optimizer.get_ref(), &at)?;
@@ -312,7 +313,7 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<Spec, InputError> {
                     "`sampler` applies to a target rendered from `values`, not to an image".into(),
                 ));
             }
-            Target::Image(base.join(image.get_ref()))
+            OptimizeTarget::Image(base.join(image.get_ref()))
         }
         (None, Some(values)) if values.is_empty() => {
             return Err(at(
@@ -320,7 +321,7 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<Spec, InputError> {
                 "[target] values is empty: name the parameters the target differs in".into(),
             ))
         }
-        (None, Some(values)) => Target::Values {
+        (None, Some(values)) => OptimizeTarget::Values {
             values: target_values(values, &source.description, &at)?,
             sampler: sampler_of(&target_file.sampler, Sampler::Random { n: 256 })?,
         },

@@ -22,28 +22,13 @@
 //! not differentiable, and a name that does not resolve is an error naming
 //! what exists where it stopped matching.
 
+pub use super::description::Entity;
 use super::description::{Scale, SceneDescription};
-use std::fmt;
 use std::ops::Range;
-
-/// The part of the scene a parameter belongs to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Entity {
-    Camera,
-    Render,
-    /// Index in name order (the scene's material index).
-    Material(u32),
-    Sphere(u32),
-    Ellipsoid(u32),
-    Plane(u32),
-    Triangle(u32),
-    Mesh(u32),
-    Light(u32),
-}
 
 /// The shape of a field's value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Shape {
+pub enum ValueShape {
     /// One number.
     Scalar,
     /// Three numbers (x, y, z or r, g, b).
@@ -75,9 +60,9 @@ macro_rules! fields {
             }
 
             /// The field's shape.
-            pub fn shape(self) -> Shape {
+            pub fn shape(self) -> ValueShape {
                 match self {
-                    $(Self::$variant => Shape::$shape),*
+                    $(Self::$variant => ValueShape::$shape),*
                 }
             }
 
@@ -220,7 +205,7 @@ impl Target {
 
     /// The field's shape as declared (a mesh's `scale` may be a vector in
     /// a given file: [`SceneDescription::shape_of`]).
-    fn declared_shape(self) -> Shape {
+    fn declared_shape(self) -> ValueShape {
         match self {
             Target::Camera(f) => f.shape(),
             Target::Render(f) => f.shape(),
@@ -303,11 +288,11 @@ impl SceneDescription {
 
     /// A field's shape in this scene (a mesh's `scale` is a vector where
     /// the file gives one per axis).
-    pub fn shape_of(&self, target: Target) -> Shape {
+    pub fn shape_of(&self, target: Target) -> ValueShape {
         match target {
             Target::Mesh(i, MeshField::Scale) => match self.meshes[i as usize].scale {
-                Scale::Uniform(_) => Shape::Scalar,
-                Scale::PerAxis(_) => Shape::Vector,
+                Scale::Uniform(_) => ValueShape::Scalar,
+                Scale::PerAxis(_) => ValueShape::Vector,
             },
             t => t.declared_shape(),
         }
@@ -331,9 +316,9 @@ impl SceneDescription {
             }
             Target::Triangle(..) => 9,
             t => match self.shape_of(t) {
-                Shape::Scalar => 1,
-                Shape::Vector => 3,
-                Shape::Points => unreachable!("points are triangles' and meshes'"),
+                ValueShape::Scalar => 1,
+                ValueShape::Vector => 3,
+                ValueShape::Points => unreachable!("points are triangles' and meshes'"),
             },
         })
     }
@@ -346,9 +331,9 @@ impl SceneDescription {
         let key = id.target.key();
         let c = id.component;
         match self.shape_of(id.target) {
-            Shape::Scalar => format!("{prefix}.{key}"),
-            Shape::Vector => format!("{prefix}.{key}[{c}]"),
-            Shape::Points => format!("{prefix}.{key}[{}][{}]", c / 3, c % 3),
+            ValueShape::Scalar => format!("{prefix}.{key}"),
+            ValueShape::Vector => format!("{prefix}.{key}[{c}]"),
+            ValueShape::Points => format!("{prefix}.{key}[{}][{}]", c / 3, c % 3),
         }
     }
 
@@ -429,21 +414,5 @@ fn fields_of(entity: Entity) -> Vec<Target> {
             .iter()
             .map(|&f| Target::Light(i, f))
             .collect(),
-    }
-}
-
-impl fmt::Display for Entity {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Entity::Camera => f.write_str("[camera]"),
-            Entity::Render => f.write_str("[render]"),
-            Entity::Material(i) => write!(f, "material {i}"),
-            Entity::Sphere(i) => write!(f, "sphere[{i}]"),
-            Entity::Ellipsoid(i) => write!(f, "ellipsoid[{i}]"),
-            Entity::Plane(i) => write!(f, "plane[{i}]"),
-            Entity::Triangle(i) => write!(f, "triangle[{i}]"),
-            Entity::Mesh(i) => write!(f, "mesh[{i}]"),
-            Entity::Light(i) => write!(f, "light[{i}]"),
-        }
     }
 }

@@ -2,7 +2,7 @@
 //! `mesh[0].vertices[4..9]`) into the [`Selection`] it names, with
 //! errors that say what exists where the name stopped matching.
 
-use super::{field_of, Entity, ParamError, Selection, Shape};
+use super::{field_of, Entity, ParamError, Selection, ValueShape};
 use crate::scene::SceneDescription;
 
 /// Fields that exist but are not differentiable, and why.
@@ -153,19 +153,21 @@ impl SceneDescription {
             .map_err(|why| format!("`{full}` {why}"))?;
         let components = match (self.shape_of(target), field_step.indices.as_slice()) {
             (_, []) => 0..len,
-            (Shape::Vector, [Index::One(c)]) if *c < 3 => *c..c + 1,
-            (Shape::Points, [Index::One(v)]) if 3 * v < len => 3 * v..3 * v + 3,
-            (Shape::Points, [Index::Range(a, b)]) if a < b && 3 * b <= len => 3 * a..3 * b,
-            (Shape::Points, [Index::One(v), Index::One(c)]) if 3 * v < len && *c < 3 => {
+            (ValueShape::Vector, [Index::One(c)]) if *c < 3 => *c..c + 1,
+            (ValueShape::Points, [Index::One(v)]) if 3 * v < len => 3 * v..3 * v + 3,
+            (ValueShape::Points, [Index::Range(a, b)]) if a < b && 3 * b <= len => 3 * a..3 * b,
+            (ValueShape::Points, [Index::One(v), Index::One(c)]) if 3 * v < len && *c < 3 => {
                 3 * v + c..3 * v + c + 1
             }
-            (Shape::Scalar, _) => return Err(format!("`{full}` is a number and takes no index")),
-            (Shape::Vector, _) => {
+            (ValueShape::Scalar, _) => {
+                return Err(format!("`{full}` is a number and takes no index"))
+            }
+            (ValueShape::Vector, _) => {
                 return Err(format!(
                     "`{full}` is a vector: index it with [0], [1] or [2], or not at all"
                 ))
             }
-            (Shape::Points, _) => {
+            (ValueShape::Points, _) => {
                 return Err(format!(
                     "`{full}` holds {} points: index it as [vertex][axis] (axis 0…2), \
                      [vertex], [first..end] or not at all",

@@ -8,7 +8,7 @@ use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
 
 /// How an axis maps values to positions.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Scale {
+pub enum AxisScale {
     /// Equal distances for equal differences.
     #[default]
     Linear,
@@ -22,7 +22,7 @@ pub enum Scale {
 /// so a single plotters coordinate type serves every combination of scales.
 #[derive(Clone, Debug)]
 pub(super) struct Axis {
-    pub(super) scale: Scale,
+    pub(super) scale: AxisScale,
     pub(super) lo: f64,
     pub(super) hi: f64,
     pub(super) major: Vec<f64>,
@@ -34,13 +34,13 @@ pub(super) struct Axis {
 
 impl Axis {
     /// An axis over [lo, hi] in plot space, with ticks chosen for it.
-    pub(super) fn new(scale: Scale, lo: f64, hi: f64) -> Axis {
+    pub(super) fn new(scale: AxisScale, lo: f64, hi: f64) -> Axis {
         let (major, minor, plain) = match scale {
-            Scale::Linear => {
+            AxisScale::Linear => {
                 let (major, minor) = linear_ticks(lo, hi);
                 (major, minor, true)
             }
-            Scale::Log10 => log_ticks(lo, hi),
+            AxisScale::Log10 => log_ticks(lo, hi),
         };
         Axis {
             scale,
@@ -55,8 +55,8 @@ impl Axis {
     /// The tick label for a plot-space position.
     pub(super) fn label(&self, u: f64) -> String {
         match self.scale {
-            Scale::Linear => format_tick(u),
-            Scale::Log10 => {
+            AxisScale::Linear => format_tick(u),
+            AxisScale::Log10 => {
                 let k = u.round();
                 if (u - k).abs() < 1e-9 && !self.plain {
                     format!("10{}", superscript(k as i64))
@@ -94,14 +94,14 @@ impl Axis {
     /// is meant for bars: a linear one includes 0 without padding past it,
     /// a log one starts at the decade below the smallest value. With no
     /// values the axis is [0, 1] (1 to 10 on a log axis).
-    pub(super) fn fit(scale: Scale, us: &[f64], pad: f64, from_base: bool) -> Axis {
+    pub(super) fn fit(scale: AxisScale, us: &[f64], pad: f64, from_base: bool) -> Axis {
         let mut lo = us.iter().copied().fold(f64::INFINITY, f64::min);
         let mut hi = us.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         if !(lo.is_finite() && hi.is_finite()) {
             return Axis::new(scale, 0.0, 1.0);
         }
-        let bars_linear = from_base && scale == Scale::Linear;
-        let bars_log = from_base && scale == Scale::Log10;
+        let bars_linear = from_base && scale == AxisScale::Linear;
+        let bars_log = from_base && scale == AxisScale::Log10;
         if bars_linear {
             lo = lo.min(0.0);
             hi = hi.max(0.0);
@@ -109,8 +109,8 @@ impl Axis {
         if hi - lo <= f64::EPSILON * lo.abs().max(1.0) * 4.0 {
             // A single value: centre it in a window of sensible width.
             let half = match scale {
-                Scale::Linear => (lo.abs() * 0.1).max(0.5),
-                Scale::Log10 => 0.5,
+                AxisScale::Linear => (lo.abs() * 0.1).max(0.5),
+                AxisScale::Log10 => 0.5,
             };
             (lo, hi) = (lo - half, hi + half);
         } else {
@@ -169,10 +169,10 @@ impl Ranged for AxisCoord {
 
 /// `v` in plot space: itself on a linear axis, its log10 on a log axis;
 /// `None` when it cannot be drawn (not finite, or ≤ 0 on a log axis).
-pub(super) fn to_plot(scale: Scale, v: f64) -> Option<f64> {
+pub(super) fn to_plot(scale: AxisScale, v: f64) -> Option<f64> {
     match scale {
-        Scale::Linear => v.is_finite().then_some(v),
-        Scale::Log10 => (v.is_finite() && v > 0.0).then(|| v.log10()),
+        AxisScale::Linear => v.is_finite().then_some(v),
+        AxisScale::Log10 => (v.is_finite() && v > 0.0).then(|| v.log10()),
     }
 }
 
@@ -325,16 +325,16 @@ mod tests {
     #[test]
     fn log_axes_get_power_of_ten_ticks() {
         // Five decades: majors at each power, labelled 10ᵏ.
-        let axis = Axis::new(Scale::Log10, -0.2, 4.3);
+        let axis = Axis::new(AxisScale::Log10, -0.2, 4.3);
         assert_eq!(axis.major, [0.0, 1.0, 2.0, 3.0, 4.0]);
         assert_eq!(axis.label(2.0), "10²");
         assert_eq!(axis.label(-3.0), "10⁻³");
         // Under a decade: 1-2-5 ticks, all labelled as plain numbers.
-        let axis = Axis::new(Scale::Log10, 10f64.log10(), 60f64.log10());
+        let axis = Axis::new(AxisScale::Log10, 10f64.log10(), 60f64.log10());
         let labels: Vec<String> = axis.major.iter().map(|&u| axis.label(u)).collect();
         assert_eq!(labels, ["10", "20", "50"]);
         // Forty decades: every fifth power, never more than nine labels.
-        let axis = Axis::new(Scale::Log10, -20.0, 20.0);
+        let axis = Axis::new(AxisScale::Log10, -20.0, 20.0);
         assert!(
             axis.major.len() <= 9 && axis.major.len() >= 2,
             "{:?}",

@@ -2,12 +2,12 @@
 //! by side, on a linear or log y axis. Part of [`crate::analysis::plot`];
 //! the frame and legend come from [`super::chart`].
 
-use super::axis::{to_plot, Axis, Scale};
+use super::axis::{to_plot, Axis, AxisScale};
 use super::chart::{build_chart, draw_legend, place_legend, plot_width, LegendPosition, XTicks};
 use super::{
-    check_figure, fit_text, plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE, TICK_PX,
+    check_figure, fit_text, plot_err, rgb, save_figure, series_colour, Figure, PlotError,
+    CHART_SIZE, TICK_PX,
 };
-use anyhow::{ensure, Context};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -46,7 +46,7 @@ pub struct BarChart {
     /// The series, coloured in order.
     pub series: Vec<BarSeries>,
     /// y axis scale; on a log axis bars rise from the bottom of the axis.
-    pub y_scale: Scale,
+    pub y_scale: AxisScale,
     /// Legend placement.
     pub legend: LegendPosition,
     /// Canvas size in pixels, [`CHART_SIZE`] by default.
@@ -67,22 +67,22 @@ impl BarChart {
             y_label: y_label.into(),
             categories,
             series: Vec::new(),
-            y_scale: Scale::Linear,
+            y_scale: AxisScale::Linear,
             legend: LegendPosition::Auto,
             size: CHART_SIZE,
         }
     }
 
     /// Write `stem.png` and `stem.svg`.
-    pub fn save(&self, stem: &Path) -> anyhow::Result<()> {
-        save_figure(self, stem).with_context(|| format!("bar chart \"{}\"", self.title))
+    pub fn save(&self, stem: &Path) -> Result<(), PlotError> {
+        save_figure(self, stem).map_err(|e| PlotError::figure("bar chart", &self.title, e))
     }
 
     /// Draw the chart in memory only: an error where [`Self::save`] would
     /// fail (a title or axis label that does not fit, a log axis without
     /// positive data).
-    pub fn check(&self) -> anyhow::Result<()> {
-        check_figure(self).with_context(|| format!("bar chart \"{}\"", self.title))
+    pub fn check(&self) -> Result<(), PlotError> {
+        check_figure(self).map_err(|e| PlotError::figure("bar chart", &self.title, e))
     }
 }
 
@@ -110,7 +110,7 @@ impl Figure for BarChart {
         self.size
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
         let n_cat = self.categories.len();
         let bars = self.bars();
         let ys: Vec<f64> = bars.iter().map(|b| b.3).collect();
@@ -119,19 +119,20 @@ impl Figure for BarChart {
             .iter()
             .flat_map(|s| s.values.iter().take(n_cat))
             .any(|v| v.is_finite());
-        ensure!(
-            !(any_finite && ys.is_empty()),
-            "no bar has a positive value for the log y axis"
-        );
+        if any_finite && ys.is_empty() {
+            return Err(PlotError::Invalid(
+                "no bar has a positive value for the log y axis".into(),
+            ));
+        }
         let y = Axis::fit(self.y_scale, &ys, 0.08, true);
         let x = Axis {
             major: (0..n_cat).map(|i| i as f64 + 0.5).collect(),
             minor: vec![],
-            ..Axis::new(Scale::Linear, 0.0, n_cat.max(1) as f64)
+            ..Axis::new(AxisScale::Linear, 0.0, n_cat.max(1) as f64)
         };
         let base = match self.y_scale {
-            Scale::Linear => 0.0f64.clamp(y.lo, y.hi),
-            Scale::Log10 => y.lo,
+            AxisScale::Linear => 0.0f64.clamp(y.lo, y.hi),
+            AxisScale::Log10 => y.lo,
         };
         // Where the bars are, sampled on a grid inside each, for the legend.
         let mut occupied = Vec::new();

@@ -6,7 +6,8 @@
 
 use super::axis::{Axis, AxisCoord};
 use super::{
-    fit_text, font, plot_err, AXIS_DESC_PX, LEGEND_PX, LINE_WIDTH, MARKER_RADIUS, TICK_PX, TITLE_PX,
+    fit_text, font, plot_err, PlotError, AXIS_DESC_PX, LEGEND_PX, LINE_WIDTH, MARKER_RADIUS,
+    TICK_PX, TITLE_PX,
 };
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -138,7 +139,7 @@ pub enum LegendPosition {
 pub(super) fn draw_legend<'a, DB: DrawingBackend + 'a>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<AxisCoord, AxisCoord>>,
     position: LegendPosition,
-) -> anyhow::Result<()> {
+) -> Result<(), PlotError> {
     let pos = match position {
         LegendPosition::UpperLeft => SeriesLabelPosition::UpperLeft,
         LegendPosition::UpperRight => SeriesLabelPosition::UpperRight,
@@ -190,7 +191,7 @@ pub(super) fn build_chart<'a, DB: DrawingBackend>(
     x_label: &str,
     y_label: &str,
     x_ticks: XTicks<'_>,
-) -> anyhow::Result<Chart2d<'a, DB>> {
+) -> Result<Chart2d<'a, DB>, PlotError> {
     let (width, _) = root.dim_in_pixel();
     let title_px = fit_text(
         "title",

@@ -2,12 +2,11 @@
 //! drawn as colours of a [`Palette`](super::Palette), with labelled axes and
 //! a colour bar, linear or log. Part of [`crate::analysis::plot`].
 
-use super::axis::{to_plot, Axis, Scale};
+use super::axis::{to_plot, Axis, AxisScale};
 use super::{
-    draw_bitmap, fit_text, font, plot_err, save_figure, Figure, Palette, AXIS_DESC_PX, TICK_PX,
-    TITLE_PX,
+    draw_bitmap, fit_text, font, plot_err, save_figure, Figure, Palette, PlotError, AXIS_DESC_PX,
+    TICK_PX, TITLE_PX,
 };
-use anyhow::{ensure, Context};
 use ndarray::Array2;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -87,15 +86,15 @@ impl Heatmap {
 
     /// Write `stem.png` and `stem.svg`. Fails when the data is empty, or
     /// when `log_scale` is set and no value is positive.
-    pub fn save(&self, stem: &Path) -> anyhow::Result<()> {
-        save_figure(self, stem).with_context(|| format!("heatmap \"{}\"", self.title))
+    pub fn save(&self, stem: &Path) -> Result<(), PlotError> {
+        save_figure(self, stem).map_err(|e| PlotError::figure("heatmap", &self.title, e))
     }
 
-    fn scale(&self) -> Scale {
+    fn scale(&self) -> AxisScale {
         if self.log_scale {
-            Scale::Log10
+            AxisScale::Log10
         } else {
-            Scale::Linear
+            AxisScale::Linear
         }
     }
 
@@ -132,27 +131,29 @@ impl Figure for Heatmap {
         )
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
         let (rows, cols) = self.data.dim();
-        ensure!(
-            rows > 0 && cols > 0,
-            "heatmap data is empty ({rows}×{cols})"
-        );
+        if rows == 0 || cols == 0 {
+            return Err(PlotError::Invalid(format!(
+                "heatmap data is empty ({rows}×{cols})"
+            )));
+        }
         let scale = self.scale();
         let us: Vec<f64> = self
             .data
             .iter()
             .filter_map(|&v| to_plot(scale, v))
             .collect();
-        ensure!(
-            !us.is_empty(),
-            "no value can be shown{}",
-            if self.log_scale {
-                " on a log scale (none is positive); use a linear scale"
-            } else {
-                " (all are NaN or infinite)"
-            }
-        );
+        if us.is_empty() {
+            return Err(PlotError::Invalid(format!(
+                "no value can be shown{}",
+                if self.log_scale {
+                    " on a log scale (none is positive); use a linear scale"
+                } else {
+                    " (all are NaN or infinite)"
+                }
+            )));
+        }
         let mut vmin = us.iter().copied().fold(f64::INFINITY, f64::min);
         let mut vmax = us.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         if let Some((lo, hi)) = self.range {
@@ -193,8 +194,8 @@ impl Figure for Heatmap {
         // to 0 (top).
         let [left, right, bottom, top] =
             self.extent.unwrap_or([0.0, cols as f64, rows as f64, 0.0]);
-        let x = Axis::fit(Scale::Linear, &[left, right], 0.0, false);
-        let mut y = Axis::fit(Scale::Linear, &[bottom, top], 0.0, false);
+        let x = Axis::fit(AxisScale::Linear, &[left, right], 0.0, false);
+        let mut y = Axis::fit(AxisScale::Linear, &[bottom, top], 0.0, false);
         if bottom > top {
             std::mem::swap(&mut y.lo, &mut y.hi);
         }
@@ -249,7 +250,7 @@ impl Figure for Heatmap {
 
         // The colour bar: a narrow chart whose y axis is the value scale.
         let bar_area = bar_area.margin(HM_TOP, HM_BOTTOM, 60, 0);
-        let bar_x = Axis::new(Scale::Linear, 0.0, 1.0);
+        let bar_x = Axis::new(AxisScale::Linear, 0.0, 1.0);
         let mut bar = ChartBuilder::on(&bar_area)
             .right_y_label_area_size(HM_BAR_LABELS)
             .build_cartesian_2d(bar_x.coord(), bar_axis.coord())

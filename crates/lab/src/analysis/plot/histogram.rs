@@ -3,10 +3,9 @@
 //! its own. Part of [`crate::analysis::plot`]; the frame comes from
 //! [`super::chart`].
 
-use super::axis::{to_plot, Axis, Scale};
+use super::axis::{to_plot, Axis, AxisScale};
 use super::chart::{build_chart, XTicks};
-use super::{plot_err, rgb, save_figure, Figure, CHART_SIZE, OKABE_ITO, TICK_PX};
-use anyhow::{ensure, Context};
+use super::{plot_err, rgb, save_figure, Figure, PlotError, CHART_SIZE, OKABE_ITO, TICK_PX};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -46,7 +45,7 @@ pub struct Histogram {
     /// Binning range; `None` means from the sample's minimum to maximum.
     pub range: Option<(f64, f64)>,
     /// y axis scale; `Log10` suits long-tailed data, empty bins are skipped.
-    pub y_scale: Scale,
+    pub y_scale: AxisScale,
     /// Canvas size in pixels, [`CHART_SIZE`] by default.
     pub size: (u32, u32),
 }
@@ -66,7 +65,7 @@ impl Histogram {
             values,
             bins,
             range: None,
-            y_scale: Scale::Linear,
+            y_scale: AxisScale::Linear,
             size: CHART_SIZE,
         }
     }
@@ -90,8 +89,8 @@ impl Histogram {
     }
 
     /// Write `stem.png` and `stem.svg`.
-    pub fn save(&self, stem: &Path) -> anyhow::Result<()> {
-        save_figure(self, stem).with_context(|| format!("histogram \"{}\"", self.title))
+    pub fn save(&self, stem: &Path) -> Result<(), PlotError> {
+        save_figure(self, stem).map_err(|e| PlotError::figure("histogram", &self.title, e))
     }
 }
 
@@ -100,19 +99,24 @@ impl Figure for Histogram {
         self.size
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
-        ensure!(self.bins >= 1, "a histogram needs at least one bin");
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
+        if self.bins < 1 {
+            return Err(PlotError::Invalid(
+                "a histogram needs at least one bin".into(),
+            ));
+        }
         let (lo, hi) = self.bin_range().unwrap_or((0.0, 1.0));
-        ensure!(
-            lo.is_finite() && hi.is_finite() && hi > lo,
-            "histogram range ({lo}, {hi}) is empty or not finite"
-        );
+        if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+            return Err(PlotError::Invalid(format!(
+                "histogram range ({lo}, {hi}) is empty or not finite"
+            )));
+        }
         let counts = bin_counts(&self.values, self.bins, (lo, hi));
         let ys: Vec<f64> = counts
             .iter()
             .filter_map(|&c| to_plot(self.y_scale, c as f64))
             .collect();
-        let x = Axis::fit(Scale::Linear, &[lo, hi], 0.0, false);
+        let x = Axis::fit(AxisScale::Linear, &[lo, hi], 0.0, false);
         let y = Axis::fit(self.y_scale, &ys, 0.08, true);
         let x_fmt = |u: &f64| x.label(*u);
         let mut chart = build_chart(
@@ -128,8 +132,8 @@ impl Figure for Histogram {
             },
         )?;
         let base = match self.y_scale {
-            Scale::Linear => 0.0,
-            Scale::Log10 => y.lo,
+            AxisScale::Linear => 0.0,
+            AxisScale::Log10 => y.lo,
         };
         let step = (hi - lo) / self.bins as f64;
         let colour = rgb(OKABE_ITO[0]);

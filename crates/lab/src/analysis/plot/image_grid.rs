@@ -3,9 +3,9 @@
 //! shown as 8-bit sRGB. Part of [`crate::analysis::plot`].
 
 use super::{
-    draw_bitmap, fit_text, font, plot_err, save_figure, text_width, Figure, CAPTION_PX, TITLE_PX,
+    draw_bitmap, fit_text, font, plot_err, save_figure, text_width, Figure, PlotError, CAPTION_PX,
+    TITLE_PX,
 };
-use anyhow::{ensure, Context};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -44,27 +44,30 @@ impl ImageGrid {
     /// Write `stem.png` and `stem.svg` (the SVG embeds the images as PNG).
     /// Fails when there is no cell, an image is empty or not RGB, or
     /// `columns` is 0.
-    pub fn save(&self, stem: &Path) -> anyhow::Result<()> {
-        ensure!(
-            self.columns >= 1,
-            "image grid \"{}\": columns must be at least 1",
-            self.title
-        );
-        ensure!(
-            !self.cells.is_empty(),
-            "image grid \"{}\" has no images",
-            self.title
-        );
+    pub fn save(&self, stem: &Path) -> Result<(), PlotError> {
+        if self.columns < 1 {
+            return Err(PlotError::Invalid(format!(
+                "image grid \"{}\": columns must be at least 1",
+                self.title
+            )));
+        }
+        if self.cells.is_empty() {
+            return Err(PlotError::Invalid(format!(
+                "image grid \"{}\" has no images",
+                self.title
+            )));
+        }
         for (i, (img, caption)) in self.cells.iter().enumerate() {
             let (h, w, c) = img.dim();
-            ensure!(
-                h > 0 && w > 0 && c == 3,
-                "image grid \"{}\": image {i} (\"{caption}\") is {w}×{h} with {c} channels; \
-                 expected a non-empty RGB image",
-                self.title
-            );
+            if !(h > 0 && w > 0 && c == 3) {
+                return Err(PlotError::Invalid(format!(
+                    "image grid \"{}\": image {i} (\"{caption}\") is {w}×{h} with {c} channels; \
+                     expected a non-empty RGB image",
+                    self.title
+                )));
+            }
         }
-        save_figure(self, stem).with_context(|| format!("image grid \"{}\"", self.title))
+        save_figure(self, stem).map_err(|e| PlotError::figure("image grid", &self.title, e))
     }
 
     /// The box every image is fitted into: the largest image, scaled by an
@@ -119,7 +122,7 @@ impl Figure for ImageGrid {
         )
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
         let (total_w, _) = self.size();
         let (bw, bh, s) = self.cell_box();
         let cols = self.columns.clamp(1, self.cells.len().max(1)) as u32;

@@ -2,16 +2,15 @@
 //! axes, drawn as lines, markers, both, or dashed reference curves. Part of
 //! [`crate::analysis::plot`]; the frame and legend come from [`super::chart`].
 
-use super::axis::{to_plot, Axis, Scale};
+use super::axis::{to_plot, Axis, AxisScale};
 use super::chart::{
     build_chart, draw_legend, marker_polygon, place_legend, sample_polyline, LegendGlyph,
     LegendPosition, SeriesStyle, XTicks, MARKERS,
 };
 use super::{
-    check_figure, plot_err, rgb, save_figure, series_colour, Figure, CHART_SIZE, LINE_WIDTH,
-    MARKER_RADIUS, TICK_PX,
+    check_figure, plot_err, rgb, save_figure, series_colour, Figure, PlotError, CHART_SIZE,
+    LINE_WIDTH, MARKER_RADIUS, TICK_PX,
 };
-use anyhow::{anyhow, Context};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -60,9 +59,9 @@ pub struct LineChart {
     /// y axis description (include the unit).
     pub y_label: String,
     /// x axis scale.
-    pub x_scale: Scale,
+    pub x_scale: AxisScale,
     /// y axis scale.
-    pub y_scale: Scale,
+    pub y_scale: AxisScale,
     /// The curves, coloured and marked in order.
     pub series: Vec<Series>,
     /// Legend placement.
@@ -85,8 +84,8 @@ impl LineChart {
             title: title.into(),
             x_label: x_label.into(),
             y_label: y_label.into(),
-            x_scale: Scale::Linear,
-            y_scale: Scale::Linear,
+            x_scale: AxisScale::Linear,
+            y_scale: AxisScale::Linear,
             series: Vec::new(),
             legend: LegendPosition::Auto,
             size: CHART_SIZE,
@@ -96,15 +95,15 @@ impl LineChart {
 
     /// Write `stem.png` and `stem.svg`. Fails (writing nothing) when a log
     /// axis has data but none of it is positive.
-    pub fn save(&self, stem: &Path) -> anyhow::Result<()> {
-        save_figure(self, stem).with_context(|| format!("line chart \"{}\"", self.title))
+    pub fn save(&self, stem: &Path) -> Result<(), PlotError> {
+        save_figure(self, stem).map_err(|e| PlotError::figure("line chart", &self.title, e))
     }
 
     /// Draw the chart in memory only: an error where [`Self::save`] would
     /// fail (a title or axis label that does not fit, a log axis without
     /// positive data).
-    pub fn check(&self) -> anyhow::Result<()> {
-        check_figure(self).with_context(|| format!("line chart \"{}\"", self.title))
+    pub fn check(&self) -> Result<(), PlotError> {
+        check_figure(self).map_err(|e| PlotError::figure("line chart", &self.title, e))
     }
 
     /// The drawable points of each series in plot space, split into runs:
@@ -142,7 +141,7 @@ impl LineChart {
             .collect()
     }
 
-    fn axes(&self, runs: &[Vec<Vec<(f64, f64)>>]) -> anyhow::Result<(Axis, Axis)> {
+    fn axes(&self, runs: &[Vec<Vec<(f64, f64)>>]) -> Result<(Axis, Axis), PlotError> {
         let all = || runs.iter().flatten().flatten();
         let xs: Vec<f64> = all().map(|p| p.0).collect();
         let mut ys: Vec<f64> = all().map(|p| p.1).collect();
@@ -157,14 +156,14 @@ impl LineChart {
         if any_finite && xs.is_empty() {
             let which: Vec<&str> = [("x", self.x_scale), ("y", self.y_scale)]
                 .iter()
-                .filter(|(_, s)| *s == Scale::Log10)
+                .filter(|(_, s)| *s == AxisScale::Log10)
                 .map(|(n, _)| *n)
                 .collect();
-            return Err(anyhow!(
+            return Err(PlotError::Invalid(format!(
                 "no point has a positive value on the log {} axis; \
                  use a linear scale for data that is all zero or negative",
                 which.join(" and ")
-            ));
+            )));
         }
         Ok((
             Axis::fit(self.x_scale, &xs, 0.03, false),
@@ -178,7 +177,7 @@ impl Figure for LineChart {
         self.size
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
         let runs = self.plot_runs();
         let (x, y) = self.axes(&runs)?;
         let shown: Vec<usize> = (0..self.series.len())

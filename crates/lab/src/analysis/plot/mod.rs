@@ -44,20 +44,21 @@
 mod axis;
 mod bar;
 mod chart;
+mod error;
 mod heatmap;
 mod histogram;
 mod image_grid;
 mod line;
 
-pub use axis::{format_tick, Scale};
+pub use axis::{format_tick, AxisScale};
 pub use bar::{BarChart, BarSeries};
 pub use chart::{LegendPosition, SeriesStyle};
+pub use error::PlotError;
 pub use heatmap::Heatmap;
 pub use histogram::{bin_counts, Histogram};
 pub use image_grid::ImageGrid;
 pub use line::{LineChart, Series};
 
-use anyhow::{anyhow, ensure, Context};
 use plotters::coord::Shift;
 use plotters::element::BitMapElement;
 use plotters::prelude::*;
@@ -110,15 +111,16 @@ const LINE_WIDTH: u32 = 3;
 const MARKER_RADIUS: i32 = 8;
 
 /// Register the bundled font with plotters once per process.
-fn ensure_font() -> anyhow::Result<()> {
-    static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
-    REGISTERED
-        .get_or_init(|| {
-            plotters::style::register_font(FONT_FAMILY, FontStyle::Normal, FONT_BYTES)
-                .map_err(|_| "the bundled DejaVu Sans font could not be parsed".to_string())
-        })
-        .clone()
-        .map_err(|e| anyhow!(e))
+fn ensure_font() -> Result<(), PlotError> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let registered = *REGISTERED.get_or_init(|| {
+        plotters::style::register_font(FONT_FAMILY, FontStyle::Normal, FONT_BYTES).is_ok()
+    });
+    if registered {
+        Ok(())
+    } else {
+        Err(PlotError::Font)
+    }
 }
 
 /// The bundled font at `px` pixels, in black.
@@ -128,12 +130,15 @@ fn font(px: f64) -> TextStyle<'static> {
 
 /// The width in pixels of `text` set in the bundled font at `px` (what the
 /// PNG shows; an SVG viewer may substitute a font of similar width).
-pub fn text_width(text: &str, px: f64) -> anyhow::Result<f64> {
+pub fn text_width(text: &str, px: f64) -> Result<f64, PlotError> {
     ensure_font()?;
     let (w, _) = font(px)
         .font
         .box_size(text)
-        .map_err(|e| anyhow!("cannot measure the text \"{text}\": {e:?}"))?;
+        .map_err(|e| PlotError::Measure {
+            text: text.to_string(),
+            reason: format!("{e:?}"),
+        })?;
     Ok(f64::from(w))
 }
 
@@ -141,7 +146,7 @@ pub fn text_width(text: &str, px: f64) -> anyhow::Result<f64> {
 /// label"…) fits in `room` pixels: `px` when it fits there, otherwise the
 /// largest whole size down to [`MIN_TEXT_PX`] that fits. An error when the
 /// text is wider than `room` even at [`MIN_TEXT_PX`].
-pub fn fit_text(what: &str, text: &str, px: f64, room: f64) -> anyhow::Result<f64> {
+pub fn fit_text(what: &str, text: &str, px: f64, room: f64) -> Result<f64, PlotError> {
     let w = text_width(text, px)?;
     if w <= room {
         return Ok(px);
@@ -155,16 +160,17 @@ pub fn fit_text(what: &str, text: &str, px: f64, room: f64) -> anyhow::Result<f6
         }
         size -= 1.0;
     }
-    let at_min = text_width(text, MIN_TEXT_PX)?;
-    Err(anyhow!(
-        "the {what} \"{text}\" does not fit: {at_min:.0} px wide at the smallest \
-         text size ({MIN_TEXT_PX} px), {room:.0} px available; shorten it"
-    ))
+    Err(PlotError::TextDoesNotFit {
+        what: what.to_string(),
+        text: text.to_string(),
+        width: text_width(text, MIN_TEXT_PX)?,
+        room,
+    })
 }
 
 /// plotters' errors are generic over the backend; keep only their message.
-fn plot_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
-    anyhow!("plotting failed: {e}")
+fn plot_err<E: std::fmt::Display>(e: E) -> PlotError {
+    PlotError::Backend(e.to_string())
 }
 
 /// An sRGB triple as a plotters colour.
@@ -279,18 +285,19 @@ trait Figure {
     /// Canvas size in pixels (PNG) and user units (SVG).
     fn size(&self) -> (u32, u32);
     /// Draw the whole figure on `root` (already filled white).
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> anyhow::Result<()>;
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError>;
 }
 
 /// Render `fig` to PNG and SVG in memory, then write `stem.png` and
 /// `stem.svg` atomically.
-fn save_figure<F: Figure>(fig: &F, stem: &Path) -> anyhow::Result<()> {
+fn save_figure<F: Figure>(fig: &F, stem: &Path) -> Result<(), PlotError> {
     ensure_font()?;
     let (w, h) = fig.size();
-    ensure!(
-        (100..=20_000).contains(&w) && (100..=20_000).contains(&h),
-        "figure size {w}×{h} is out of range (100 to 20000 pixels a side)"
-    );
+    if !((100..=20_000).contains(&w) && (100..=20_000).contains(&h)) {
+        return Err(PlotError::Invalid(format!(
+            "figure size {w}×{h} is out of range (100 to 20000 pixels a side)"
+        )));
+    }
     let mut pixels = vec![255u8; w as usize * h as usize * 3];
     {
         let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
@@ -310,20 +317,25 @@ fn save_figure<F: Figure>(fig: &F, stem: &Path) -> anyhow::Result<()> {
     let svg_path = with_suffix(stem, "svg");
     write_atomically(&png_path, |tmp| {
         let img = image::RgbImage::from_raw(w, h, pixels)
-            .ok_or_else(|| anyhow!("figure buffer size mismatch"))?;
+            .ok_or(PlotError::Internal("figure buffer size mismatch"))?;
         img.save_with_format(tmp, image::ImageFormat::Png)
-            .map_err(|e| anyhow!("{}: cannot write PNG: {e}", png_path.display()))
+            .map_err(|error| PlotError::Png {
+                path: png_path.clone(),
+                error,
+            })
     })?;
     write_atomically(&svg_path, |tmp| {
-        std::fs::write(tmp, svg.as_bytes())
-            .with_context(|| format!("{}: cannot write SVG", svg_path.display()))
+        std::fs::write(tmp, svg.as_bytes()).map_err(|error| PlotError::Svg {
+            path: svg_path.clone(),
+            error,
+        })
     })
 }
 
 /// Every figure leaves a white margin at the canvas edge; ink in the
 /// outermost pixels means something drawn (a title, a rotated axis label)
 /// runs off the canvas and is clipped. An error naming the edge.
-fn check_edges(rgb: &[u8], w: u32, h: u32) -> anyhow::Result<()> {
+fn check_edges(rgb: &[u8], w: u32, h: u32) -> Result<(), PlotError> {
     let (w, h) = (w as usize, h as usize);
     let ink = |x: usize, y: usize| {
         rgb[3 * (y * w + x)..3 * (y * w + x) + 3]
@@ -337,10 +349,7 @@ fn check_edges(rgb: &[u8], w: u32, h: u32) -> anyhow::Result<()> {
         ("bottom", (0..w).any(|x| ink(x, h - 1))),
     ];
     match edges.iter().find(|e| e.1) {
-        Some((edge, _)) => Err(anyhow!(
-            "something is drawn across the {edge} edge of the canvas and clipped \
-             (a title or label too long for its place?)"
-        )),
+        Some(&(edge, _)) => Err(PlotError::Clipped { edge }),
         None => Ok(()),
     }
 }
@@ -348,7 +357,7 @@ fn check_edges(rgb: &[u8], w: u32, h: u32) -> anyhow::Result<()> {
 /// Draw `fig` into a throw-away bitmap: every check drawing makes (text
 /// that does not fit, a log axis without positive data) without writing
 /// a file.
-fn check_figure<F: Figure>(fig: &F) -> anyhow::Result<()> {
+fn check_figure<F: Figure>(fig: &F) -> Result<(), PlotError> {
     ensure_font()?;
     let (w, h) = fig.size();
     let mut pixels = vec![255u8; w as usize * h as usize * 3];
@@ -368,14 +377,14 @@ fn draw_bitmap<DB: DrawingBackend>(
     at: (i32, i32),
     size: (u32, u32),
     rgb: Vec<u8>,
-) -> anyhow::Result<()> {
+) -> Result<(), PlotError> {
     if size.0 == 0 || size.1 == 0 {
         return Ok(());
     }
     let origin = root.get_base_pixel();
     let element: BitMapElement<(i32, i32)> =
         BitMapElement::with_owned_buffer((at.0 - origin.0, at.1 - origin.1), size, rgb)
-            .ok_or_else(|| anyhow!("bitmap buffer too small"))?;
+            .ok_or(PlotError::Internal("bitmap buffer too small"))?;
     root.draw(&element).map_err(plot_err)
 }
 

@@ -5,8 +5,9 @@
 
 use super::periodogram::{white_noise_anisotropy_db, Periodogram, Ring};
 use crate::analysis::plot::{Heatmap, LineChart, Palette, Series, SeriesStyle};
-use anyhow::{bail, Context};
+use crate::{Error, FileOp};
 use ndarray::Array2;
+use raylab::io::{InputError, Place};
 use std::path::Path;
 
 /// The radial data of one pattern, as plotted and as written to CSV.
@@ -49,11 +50,12 @@ const RINGS_HEADER: [&str; 8] = [
 /// Write the rings of every curve to `path` in long format (one row per
 /// curve and ring; columns `RINGS_HEADER`: sampler, spp, sets, radius,
 /// count, mean_power, variance, anisotropy_db), atomically.
-pub fn write_rings_csv(path: &Path, curves: &[RadialCurve]) -> anyhow::Result<()> {
+pub fn write_rings_csv(path: &Path, curves: &[RadialCurve]) -> Result<(), Error> {
+    let csv_error = |op, e| Error::csv(path, Place::File, op, e);
     raylab::io::write_atomically(path, |tmp| {
-        let mut w = csv::Writer::from_path(tmp)
-            .with_context(|| format!("{}: cannot create", path.display()))?;
-        w.write_record(RINGS_HEADER)?;
+        let mut w = csv::Writer::from_path(tmp).map_err(|e| csv_error(FileOp::Create, e))?;
+        w.write_record(RINGS_HEADER)
+            .map_err(|e| csv_error(FileOp::Write, e))?;
         for c in curves {
             for r in &c.rings {
                 w.write_record([
@@ -65,55 +67,63 @@ pub fn write_rings_csv(path: &Path, curves: &[RadialCurve]) -> anyhow::Result<()
                     format!("{:.9e}", r.mean),
                     format!("{:.9e}", r.variance),
                     format!("{:.6}", r.anisotropy_db),
-                ])?;
+                ])
+                .map_err(|e| csv_error(FileOp::Write, e))?;
             }
         }
-        w.flush()
-            .with_context(|| format!("{}: cannot write", path.display()))?;
+        w.flush().map_err(|e| Error::io(path, FileOp::Write, e))?;
         Ok(())
     })
 }
 
 /// Read a CSV written by [`write_rings_csv`] back into curves, in the
 /// order their labels first appear.
-pub fn read_rings_csv(path: &Path) -> anyhow::Result<Vec<RadialCurve>> {
+pub fn read_rings_csv(path: &Path) -> Result<Vec<RadialCurve>, Error> {
     let mut reader =
-        csv::Reader::from_path(path).with_context(|| format!("{}: cannot read", path.display()))?;
+        csv::Reader::from_path(path).map_err(|e| Error::csv(path, Place::File, FileOp::Read, e))?;
     let header: Vec<String> = reader
         .headers()
-        .with_context(|| format!("{}:1: cannot read the header", path.display()))?
+        .map_err(|e| Error::csv(path, Place::Line(1), FileOp::ReadHeader, e))?
         .iter()
         .map(str::to_string)
         .collect();
     if header != RINGS_HEADER {
-        bail!(
-            "{}:1: expected the columns {}, found {}",
-            path.display(),
-            RINGS_HEADER.join(","),
-            header.join(",")
-        );
+        return Err(InputError::line(
+            path,
+            1,
+            format!(
+                "expected the columns {}, found {}",
+                RINGS_HEADER.join(","),
+                header.join(",")
+            ),
+        )
+        .into());
     }
     let mut curves: Vec<RadialCurve> = Vec::new();
     for (i, record) in reader.records().enumerate() {
         let line = i + 2;
-        let record = record.with_context(|| format!("{}:{line}: cannot read", path.display()))?;
-        let num = |col: usize| -> anyhow::Result<f64> {
-            record[col].parse::<f64>().with_context(|| {
-                format!(
-                    "{}:{line}: `{}` is not a number ({})",
-                    path.display(),
-                    &record[col],
-                    RINGS_HEADER[col]
+        let record = record.map_err(|e| Error::csv(path, Place::Line(line), FileOp::Read, e))?;
+        let num = |col: usize| -> Result<f64, InputError> {
+            record[col].parse::<f64>().map_err(|e| {
+                InputError::line(
+                    path,
+                    line,
+                    format!(
+                        "`{}` is not a number ({}): {e}",
+                        &record[col], RINGS_HEADER[col]
+                    ),
                 )
             })
         };
-        let int = |col: usize| -> anyhow::Result<usize> {
-            record[col].parse::<usize>().with_context(|| {
-                format!(
-                    "{}:{line}: `{}` is not a count ({})",
-                    path.display(),
-                    &record[col],
-                    RINGS_HEADER[col]
+        let int = |col: usize| -> Result<usize, InputError> {
+            record[col].parse::<usize>().map_err(|e| {
+                InputError::line(
+                    path,
+                    line,
+                    format!(
+                        "`{}` is not a count ({}): {e}",
+                        &record[col], RINGS_HEADER[col]
+                    ),
                 )
             })
         };

@@ -7,7 +7,8 @@ use super::curves::{
     anisotropy_chart, periodogram_heatmap, radial_chart, write_rings_csv, RadialCurve,
 };
 use super::periodogram::{sampler_periodogram, Periodogram, SpectrumSummary, MAX_FREQ};
-use anyhow::Context;
+use crate::analysis::plot::PlotError;
+use crate::{Error, FileOp};
 use raylab::sampler::Sampler;
 use std::path::Path;
 
@@ -15,17 +16,18 @@ use std::path::Path;
 /// points at F = 32 is already minutes of work).
 pub const MAX_SETS: usize = 1_000_000;
 
-/// Check a set count and a frequency bound, saying what is expected.
-pub fn check_sets_and_freq(sets: usize, freq: usize) -> Result<(), String> {
+/// Check a set count and a frequency bound: an [`Error::Argument`] saying
+/// what is expected.
+pub fn check_sets_and_freq(sets: usize, freq: usize) -> Result<(), Error> {
     if !(1..=MAX_SETS).contains(&sets) {
-        return Err(format!(
+        return Err(Error::Argument(format!(
             "the number of point sets must be in 1..={MAX_SETS}, got {sets}"
-        ));
+        )));
     }
     if !(2..=MAX_FREQ).contains(&freq) {
-        return Err(format!(
+        return Err(Error::Argument(format!(
             "the frequency bound F must be in 2..={MAX_FREQ} (rings 1 … F−1 are reported), got {freq}"
-        ));
+        )));
     }
     Ok(())
 }
@@ -68,7 +70,7 @@ impl PatternSpectrum {
     }
 
     /// Write its periodogram image as `stem.png` and `stem.svg`.
-    pub fn save_heatmap(&self, stem: &Path) -> anyhow::Result<()> {
+    pub fn save_heatmap(&self, stem: &Path) -> Result<(), PlotError> {
         let p = &self.periodogram;
         periodogram_heatmap(
             p,
@@ -86,9 +88,8 @@ impl PatternSpectrum {
 /// `spectrum-NAME.png`/`.svg` (several), the overlaid `radial` and
 /// `anisotropy` charts (PNG + SVG) and `spectrum.csv` (every ring of every
 /// sampler). Returns the paths written.
-pub fn write_spectra(out: &Path, spectra: &[PatternSpectrum]) -> anyhow::Result<Vec<String>> {
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("{}: cannot create the output folder", out.display()))?;
+pub fn write_spectra(out: &Path, spectra: &[PatternSpectrum]) -> Result<Vec<String>, Error> {
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, FileOp::CreateOutputFolder, e))?;
     let mut written = Vec::new();
     for s in spectra {
         let stem = if spectra.len() == 1 {

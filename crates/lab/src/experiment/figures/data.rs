@@ -5,11 +5,11 @@ use super::number;
 use super::placeholders::fill;
 use super::ratio_label;
 use super::spread::spread;
-use crate::analysis::plot::{BarChart, BarSeries, LineChart, Scale};
+use crate::analysis::plot::{AxisScale, BarChart, BarSeries, LineChart};
 use crate::experiment::data::Table;
 use crate::experiment::manifest::FigureKind;
 use crate::experiment::manifest::FigureSpec;
-use anyhow::{anyhow, bail};
+use crate::Error;
 
 /// (x, y) points of one series.
 pub(super) type Points = Vec<(f64, f64)>;
@@ -29,18 +29,22 @@ pub(super) struct Data<'a> {
 }
 
 impl<'a> Data<'a> {
-    pub(super) fn new(spec: &'a FigureSpec, table: &'a Table) -> anyhow::Result<Self> {
+    pub(super) fn new(spec: &'a FigureSpec, table: &'a Table) -> Result<Self, Error> {
+        let problem = |message: String| Error::Figure {
+            file: spec.file.clone(),
+            message,
+        };
         let col = |name: &str| {
             table
                 .column(name)
-                .ok_or_else(|| anyhow!("figure `{}`: data.csv has no column `{name}`", spec.file))
+                .ok_or_else(|| problem(format!("data.csv has no column `{name}`")))
         };
         let sweep = col("sweep")?;
         let only: Vec<(usize, &Vec<String>)> = spec
             .only
             .iter()
             .map(|(c, values)| Ok((col(c)?, values)))
-            .collect::<anyhow::Result<_>>()?;
+            .collect::<Result<_, Error>>()?;
         let rows: Vec<&Vec<String>> = table
             .rows
             .iter()
@@ -48,20 +52,19 @@ impl<'a> Data<'a> {
             .filter(|r| only.iter().all(|(c, values)| values.contains(&r[*c])))
             .collect();
         if rows.is_empty() {
-            bail!(
-                "figure `{}`: no rows{} in data.csv",
-                spec.file,
+            return Err(problem(format!(
+                "no rows{} in data.csv",
                 spec.sweep
                     .as_ref()
                     .map(|s| format!(" of sweep `{s}`"))
                     .unwrap_or_default()
-            );
+            )));
         }
         // Check the placeholders of the title and labels once, so that
         // filling them later cannot fail.
-        fill(&spec.title, table, &rows).map_err(|e| anyhow!("figure `{}`: {e}", spec.file))?;
+        fill(&spec.title, table, &rows).map_err(|e| problem(e.to_string()))?;
         for label in spec.series_labels.values() {
-            fill(label, table, &rows).map_err(|e| anyhow!("figure `{}`: {e}", spec.file))?;
+            fill(label, table, &rows).map_err(|e| problem(e.to_string()))?;
         }
         Ok(Data {
             spec,
@@ -72,7 +75,7 @@ impl<'a> Data<'a> {
                 .y
                 .iter()
                 .map(|c| col(c))
-                .collect::<anyhow::Result<_>>()?,
+                .collect::<Result<_, Error>>()?,
             series: spec.series.as_deref().map(col).transpose()?,
         })
     }
@@ -108,7 +111,11 @@ impl<'a> Data<'a> {
         fill(&self.spec.title, self.table, &self.rows).unwrap_or_else(|_| self.spec.title.clone())
     }
 
-    pub(super) fn line_chart(&self, spec: &FigureSpec, scale: impl Fn(bool) -> Scale) -> LineChart {
+    pub(super) fn line_chart(
+        &self,
+        spec: &FigureSpec,
+        scale: impl Fn(bool) -> AxisScale,
+    ) -> LineChart {
         let y_label = match spec.kind {
             FigureKind::Ratio => ratio_label(spec),
             _ => spec.y_label.clone().unwrap_or_else(|| spec.y.join(", ")),
@@ -184,22 +191,22 @@ impl<'a> Data<'a> {
         spec: &FigureSpec,
         y: usize,
         param_columns: &[String],
-    ) -> anyhow::Result<(Points, Bars)> {
+    ) -> Result<(Points, Bars), Error> {
         let (Some(series), Some(num), Some(den)) = (
             self.series,
             spec.numerator.as_ref(),
             spec.denominator.as_ref(),
         ) else {
-            bail!(
-                "figure `{}`: a ratio needs `series`, `numerator` and `denominator`",
-                spec.file
-            );
+            return Err(Error::Figure {
+                file: spec.file.clone(),
+                message: "a ratio needs `series`, `numerator` and `denominator`".into(),
+            });
         };
         if series == self.x {
-            bail!(
-                "figure `{}`: the x column cannot be the series column",
-                spec.file
-            );
+            return Err(Error::Figure {
+                file: spec.file.clone(),
+                message: "the x column cannot be the series column".into(),
+            });
         }
         let key_cols: Vec<usize> = std::iter::once("sweep")
             .chain(param_columns.iter().map(String::as_str))
@@ -250,12 +257,13 @@ impl<'a> Data<'a> {
             })
             .collect();
         if points.is_empty() {
-            bail!(
-                "figure `{}`: no rows pair {} = `{num}` with {} = `{den}`",
-                spec.file,
-                self.table.columns[series],
-                self.table.columns[series]
-            );
+            return Err(Error::Figure {
+                file: spec.file.clone(),
+                message: format!(
+                    "no rows pair {} = `{num}` with {} = `{den}`",
+                    self.table.columns[series], self.table.columns[series]
+                ),
+            });
         }
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
         let errors = match spread {
@@ -265,7 +273,7 @@ impl<'a> Data<'a> {
         Ok((points.iter().map(|&(x, v)| (x, v[0])).collect(), errors))
     }
 
-    pub(super) fn bar_chart(&self, spec: &FigureSpec, y_scale: Scale) -> BarChart {
+    pub(super) fn bar_chart(&self, spec: &FigureSpec, y_scale: AxisScale) -> BarChart {
         // Categories: distinct x cells, in numeric order when all are numbers.
         let mut cats: Vec<String> = Vec::new();
         for r in &self.rows {

@@ -38,8 +38,8 @@ pub use placeholders::fill;
 use super::data::Table;
 use super::manifest::{FigureKind, FigureSpec, ReferenceStyle};
 use super::meta::{RatioSummary, SeriesMean};
-use crate::analysis::plot::{BarChart, BarSeries, LineChart, Scale, Series, SeriesStyle};
-use anyhow::anyhow;
+use crate::analysis::plot::{AxisScale, BarChart, BarSeries, LineChart, Series, SeriesStyle};
+use crate::Error;
 use data::{mean, Data};
 use spread::{LINE_ERROR_LABEL, RATIO_ERROR_LABEL};
 use std::path::Path;
@@ -81,17 +81,24 @@ pub fn draw(
     table: &Table,
     param_columns: &[String],
     dir: &Path,
-) -> anyhow::Result<Option<RatioSummary>> {
+) -> Result<Option<RatioSummary>, Error> {
     let fig = Data::new(spec, table)?;
     let stem = dir.join(&spec.file);
-    let scale = |log: bool| if log { Scale::Log10 } else { Scale::Linear };
+    let scale = |log: bool| {
+        if log {
+            AxisScale::Log10
+        } else {
+            AxisScale::Linear
+        }
+    };
     match spec.kind {
         FigureKind::Line => {
             let mut chart = fig.line_chart(spec, scale);
             let flag = match spec.dashed_where.as_deref() {
                 None => None,
-                Some(c) => Some(table.column(c).ok_or_else(|| {
-                    anyhow!("figure `{}`: data.csv has no column `{c}`", spec.file)
+                Some(c) => Some(table.column(c).ok_or_else(|| Error::Figure {
+                    file: spec.file.clone(),
+                    message: format!("data.csv has no column `{c}`"),
                 })?),
             };
             let estimated = |r: &[String]| flag.is_some_and(|f| r[f] == "true");
@@ -168,8 +175,14 @@ pub fn draw(
 /// data are not checked): an error when a text does not fit even at the
 /// smallest text size. Lets a test check every manifest's figures without
 /// running the experiments.
-pub fn check_text(spec: &FigureSpec) -> anyhow::Result<()> {
-    let scale = |log: bool| if log { Scale::Log10 } else { Scale::Linear };
+pub fn check_text(spec: &FigureSpec) -> Result<(), Error> {
+    let scale = |log: bool| {
+        if log {
+            AxisScale::Log10
+        } else {
+            AxisScale::Linear
+        }
+    };
     let x_label = spec.x_label.clone().unwrap_or_else(|| spec.x.clone());
     let y_label = match spec.kind {
         FigureKind::Ratio => ratio_label(spec),
@@ -198,7 +211,10 @@ pub fn check_text(spec: &FigureSpec) -> anyhow::Result<()> {
             chart.check()
         }
     };
-    checked.map_err(|e| anyhow!("figure `{}`: {e:#}", spec.file))
+    checked.map_err(|e| Error::Figure {
+        file: spec.file.clone(),
+        message: e.to_string(),
+    })
 }
 
 /// The y label of a ratio figure: the manifest's, or `y(num) / y(den)`.

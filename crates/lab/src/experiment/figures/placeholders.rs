@@ -8,12 +8,12 @@
 
 use super::number;
 use crate::experiment::data::Table;
-use anyhow::{anyhow, bail};
+use crate::Error;
 
 /// `text` with its placeholders (see the module docs) filled from `rows`
 /// of `table`. An error names a placeholder whose column `table` lacks, or
 /// a range over a column without numbers.
-pub fn fill(text: &str, table: &Table, rows: &[&Vec<String>]) -> anyhow::Result<String> {
+pub fn fill(text: &str, table: &Table, rows: &[&Vec<String>]) -> Result<String, Error> {
     let mut out = String::new();
     let mut rest = text;
     while let Some(open) = rest.find('{') {
@@ -23,6 +23,10 @@ pub fn fill(text: &str, table: &Table, rows: &[&Vec<String>]) -> anyhow::Result<
         out.push_str(&rest[..open]);
         let inner = &rest[open + 1..open + len];
         rest = &rest[open + len + 1..];
+        let problem = |message: String| Error::Placeholder {
+            placeholder: inner.to_string(),
+            message,
+        };
         let (range, name) = match inner.strip_prefix("range:") {
             Some(n) => (true, n),
             None => (false, inner),
@@ -30,15 +34,16 @@ pub fn fill(text: &str, table: &Table, rows: &[&Vec<String>]) -> anyhow::Result<
         let (name, field) = match name.split_once('#') {
             Some((n, f)) => (
                 n,
-                Some(f.parse::<usize>().map_err(|_| {
-                    anyhow!("placeholder `{{{inner}}}`: `{f}` is not a field number")
-                })?),
+                Some(
+                    f.parse::<usize>()
+                        .map_err(|_| problem(format!("`{f}` is not a field number")))?,
+                ),
             ),
             None => (name, None),
         };
         let col = table
             .column(name)
-            .ok_or_else(|| anyhow!("placeholder `{{{inner}}}`: data.csv has no column `{name}`"))?;
+            .ok_or_else(|| problem(format!("data.csv has no column `{name}`")))?;
         let cells: Vec<&str> = rows
             .iter()
             .map(|r| match field {
@@ -56,7 +61,9 @@ pub fn fill(text: &str, table: &Table, rows: &[&Vec<String>]) -> anyhow::Result<
             let lo = nums.iter().copied().fold(f64::INFINITY, f64::min);
             let hi = nums.iter().copied().fold(f64::NEG_INFINITY, f64::max);
             if nums.is_empty() {
-                bail!("placeholder `{{{inner}}}`: column `{name}` has no numbers in these rows");
+                return Err(problem(format!(
+                    "column `{name}` has no numbers in these rows"
+                )));
             }
             if lo == hi {
                 out.push_str(&format!("{lo}"));

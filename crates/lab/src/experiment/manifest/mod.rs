@@ -16,7 +16,7 @@ pub mod validate;
 pub use parse::{load_manifest, parse_manifest};
 
 use super::study::{DynStudy, StudyKind, StudySettings};
-use super::sweep::{expand_sweep, Param, RunPoint, Sweep, Value};
+use super::sweep::{expand_sweep, ManifestParam, RunPoint, Sweep, Value};
 use crate::analysis::plot::LegendPosition;
 use raylab::io::InputError;
 use serde::{Deserialize, Serialize};
@@ -147,9 +147,9 @@ pub struct Quick {
     /// Replaces `warmup`.
     pub warmup: Option<u32>,
     /// Replace (or add) `[fixed]` parameters.
-    pub fixed: Vec<Param>,
+    pub fixed: Vec<ManifestParam>,
     /// Per sweep name: parameters that replace (or are added to) the sweep's.
-    pub sweeps: Vec<(String, Vec<Param>)>,
+    pub sweeps: Vec<(String, Vec<ManifestParam>)>,
 }
 
 /// A checked experiment manifest.
@@ -172,7 +172,7 @@ pub struct Manifest {
     /// Worker threads (default: all cores; `--threads` overrides).
     pub threads: Option<usize>,
     /// Parameters shared by every sweep (one value each).
-    pub fixed: Vec<Param>,
+    pub fixed: Vec<ManifestParam>,
     /// The sweeps, in order.
     pub sweeps: Vec<Sweep>,
     /// The reduced version, if the manifest declares one.
@@ -308,7 +308,7 @@ impl Manifest {
         let mut runs = Vec::new();
         for sweep in &self.sweeps {
             let expanded =
-                expand_sweep(&self.fixed, sweep).map_err(|(span, msg)| self.error_at(span, msg))?;
+                expand_sweep(&self.fixed, sweep).map_err(|e| self.error_at(e.span, e.message))?;
             runs.extend(expanded);
         }
         for run in &runs {
@@ -340,7 +340,7 @@ impl Manifest {
     /// The manifest as it runs (after `--quick`), as JSON for `meta.json`:
     /// every parameter with its expanded values.
     pub fn to_json(&self) -> serde_json::Value {
-        let params = |ps: &[Param]| -> serde_json::Map<String, serde_json::Value> {
+        let params = |ps: &[ManifestParam]| -> serde_json::Map<String, serde_json::Value> {
             ps.iter()
                 .map(|p| {
                     let v = if p.values.len() == 1 {
@@ -372,7 +372,7 @@ impl Manifest {
 }
 
 /// Replace parameters by name, appending the ones not present.
-fn replace_params(params: &mut Vec<Param>, new: &[Param]) {
+fn replace_params(params: &mut Vec<ManifestParam>, new: &[ManifestParam]) {
     for p in new {
         match params.iter_mut().find(|q| q.name == p.name) {
             Some(q) => *q = p.clone(),

@@ -13,7 +13,7 @@ use super::{
 use crate::analysis::plot::LegendPosition;
 use crate::experiment::params::quoted;
 use crate::experiment::study::{self, KINDS};
-use crate::experiment::sweep::{expand_values, Param, Sweep};
+use crate::experiment::sweep::{expand_values, ManifestParam, Sweep, ValueError};
 use raylab::io::{line_col, InputError, Place};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -276,7 +276,7 @@ fn param_list(
     path: &Path,
     block: &str,
     table: &ParamTable,
-) -> Result<Vec<Param>, InputError> {
+) -> Result<Vec<ManifestParam>, InputError> {
     let mut params = Vec::new();
     for (name, value) in table {
         if name == "sweep" {
@@ -295,7 +295,7 @@ fn param_list(
                 format!("{block}, parameter `{name}`: {msg}"),
             )
         })?;
-        params.push(Param {
+        params.push(ManifestParam {
             name: name.clone(),
             values,
             span: value.span(),
@@ -311,7 +311,7 @@ fn single_values(
     path: &Path,
     block: &str,
     table: &ParamTable,
-) -> Result<Vec<Param>, InputError> {
+) -> Result<Vec<ManifestParam>, InputError> {
     let params = param_list(text, path, block, table)?;
     for p in &params {
         if p.values.len() != 1 {
@@ -333,7 +333,7 @@ fn quick_block(
     text: &str,
     path: &Path,
     q: &Spanned<QuickFile>,
-    fixed: &[Param],
+    fixed: &[ManifestParam],
     sweeps: &[Sweep],
 ) -> Result<Quick, InputError> {
     let at = |span: Range<usize>, msg: String| error_at(text, path, span, msg);
@@ -460,10 +460,10 @@ fn figure_spec(text: &str, path: &Path, f: &Spanned<FigureFile>) -> Result<Figur
                 vs.iter()
                     .map(|v| {
                         v.as_f64().ok_or_else(|| {
-                            format!("x values must be numbers, got {}", v.type_name())
+                            ValueError(format!("x values must be numbers, got {}", v.type_name()))
                         })
                     })
-                    .collect::<Result<Vec<f64>, String>>()
+                    .collect::<Result<Vec<f64>, ValueError>>()
             })
             .map_err(|msg| {
                 at(

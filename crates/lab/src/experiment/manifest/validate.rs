@@ -7,7 +7,7 @@
 //! the study accepts ([`run_error`] places its complaint at the value).
 
 use super::{FigureSpec, Manifest};
-use crate::experiment::params::{quoted, ParamError};
+use crate::experiment::params::{quoted, RunParamError};
 use crate::experiment::sweep::{template_names, RunPoint, Value};
 use raylab::io::InputError;
 use std::ops::Range;
@@ -106,7 +106,7 @@ fn check_figure(m: &Manifest, f: &FigureSpec, columns: &[String]) -> Result<(), 
 }
 
 /// An error a study found in one run, placed at the parameter's value.
-pub fn run_error(m: &Manifest, run: &RunPoint, e: ParamError) -> InputError {
+pub fn run_error(m: &Manifest, run: &RunPoint, e: RunParamError) -> InputError {
     let span = e
         .param
         .as_deref()

@@ -3,18 +3,18 @@
 //! and [`field_names`], which asks a derived `Deserialize` for the names of
 //! its fields without deserializing anything.
 //!
-//! Errors are [`ParamError`]s: a value that fails to deserialize is tagged
+//! Errors are [`RunParamError`]s: a value that fails to deserialize is tagged
 //! with its parameter's name, so the manifest can point at the line where
 //! that value is written.
 
-use super::ParamError;
+use super::RunParamError;
 use crate::experiment::sweep::{RunParam, Value};
 use serde::de::{self, DeserializeOwned, DeserializeSeed, IntoDeserializer, MapAccess, Visitor};
 use serde::{forward_to_deserialize_any, Deserialize, Deserializer};
 
 /// Deserialize `T` (a struct of parameters) from `params`, one field per
 /// parameter.
-pub fn from_params<T: DeserializeOwned>(params: &[&RunParam]) -> Result<T, ParamError> {
+pub fn from_params<T: DeserializeOwned>(params: &[&RunParam]) -> Result<T, RunParamError> {
     T::deserialize(RunDeserializer { params })
 }
 
@@ -33,9 +33,9 @@ struct RunDeserializer<'a> {
 }
 
 impl<'de> Deserializer<'de> for RunDeserializer<'_> {
-    type Error = ParamError;
+    type Error = RunParamError;
 
-    fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, ParamError> {
+    fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, RunParamError> {
         visitor.visit_map(RunMap {
             params: self.params.iter(),
             current: None,
@@ -55,17 +55,18 @@ struct RunMap<'a> {
 }
 
 impl<'de> MapAccess<'de> for RunMap<'_> {
-    type Error = ParamError;
+    type Error = RunParamError;
 
     fn next_key_seed<K: DeserializeSeed<'de>>(
         &mut self,
         seed: K,
-    ) -> Result<Option<K::Value>, ParamError> {
+    ) -> Result<Option<K::Value>, RunParamError> {
         let Some(p) = self.params.next() else {
             return Ok(None);
         };
         self.current = Some(p);
-        let name: de::value::StrDeserializer<'_, ParamError> = p.name.as_str().into_deserializer();
+        let name: de::value::StrDeserializer<'_, RunParamError> =
+            p.name.as_str().into_deserializer();
         seed.deserialize(name)
             .map(Some)
             .map_err(|e| e.of_param(&p.name))
@@ -74,11 +75,11 @@ impl<'de> MapAccess<'de> for RunMap<'_> {
     fn next_value_seed<V: DeserializeSeed<'de>>(
         &mut self,
         seed: V,
-    ) -> Result<V::Value, ParamError> {
+    ) -> Result<V::Value, RunParamError> {
         let p = self
             .current
             .take()
-            .ok_or_else(|| <ParamError as de::Error>::custom("a value without its name"))?;
+            .ok_or_else(|| <RunParamError as de::Error>::custom("a value without its name"))?;
         seed.deserialize(ValueDeserializer(&p.value))
             .map_err(|e| e.of_param(&p.name))
     }
@@ -89,9 +90,9 @@ impl<'de> MapAccess<'de> for RunMap<'_> {
 struct ValueDeserializer<'a>(&'a Value);
 
 impl<'de> Deserializer<'de> for ValueDeserializer<'_> {
-    type Error = ParamError;
+    type Error = RunParamError;
 
-    fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, ParamError> {
+    fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, RunParamError> {
         match self.0 {
             Value::Int(i) => visitor.visit_i64(*i),
             Value::Float(x) => visitor.visit_f64(*x),
@@ -100,7 +101,7 @@ impl<'de> Deserializer<'de> for ValueDeserializer<'_> {
         }
     }
 
-    fn deserialize_option<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, ParamError> {
+    fn deserialize_option<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, RunParamError> {
         visitor.visit_some(self)
     }
 
@@ -108,7 +109,7 @@ impl<'de> Deserializer<'de> for ValueDeserializer<'_> {
         self,
         _name: &'static str,
         visitor: V,
-    ) -> Result<V::Value, ParamError> {
+    ) -> Result<V::Value, RunParamError> {
         visitor.visit_newtype_struct(self)
     }
 
@@ -118,7 +119,7 @@ impl<'de> Deserializer<'de> for ValueDeserializer<'_> {
         _name: &'static str,
         _variants: &'static [&'static str],
         visitor: V,
-    ) -> Result<V::Value, ParamError> {
+    ) -> Result<V::Value, RunParamError> {
         match self.0 {
             Value::Str(s) => visitor.visit_enum(s.as_str().into_deserializer()),
             _ => self.deserialize_any(visitor),
@@ -184,7 +185,7 @@ mod tests {
         }
     }
 
-    fn parse(params: &[RunParam]) -> Result<P, ParamError> {
+    fn parse(params: &[RunParam]) -> Result<P, RunParamError> {
         from_params(&params.iter().collect::<Vec<_>>())
     }
 

@@ -11,7 +11,7 @@
 //! parameters of [`render::RenderParams`] and its own) uses the pair
 //! `(A, B)`.
 //!
-//! Every failure is a [`ParamError`] naming the parameter, which the
+//! Every failure is a [`RunParamError`] naming the parameter, which the
 //! manifest turns into an error at the line where the value is written.
 //! Values of these types are parsed from strings by [`FromParam`] (via
 //! [`parsed`] and [`parsed_opt`]); [`InRange`] is an integer checked
@@ -42,28 +42,28 @@ pub struct ParamDoc {
 /// A run's parameters are wrong: which one (if one) and why. The manifest
 /// turns it into an error naming the file, the line and the parameter.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct ParamError {
+pub struct RunParamError {
     /// The offending parameter, when the problem is one parameter.
     pub param: Option<String>,
     /// What is wrong.
     pub message: String,
 }
 
-impl ParamError {
+impl RunParamError {
     /// A problem with parameter `name`.
-    pub fn new(name: &str, message: impl Into<String>) -> Self {
+    pub fn new(name: &str, message: impl std::fmt::Display) -> Self {
         Self {
             param: Some(name.to_string()),
-            message: message.into(),
+            message: message.to_string(),
         }
     }
 
     /// A problem with the run as a whole (a missing or conflicting
     /// parameter).
-    pub fn run(message: impl Into<String>) -> Self {
+    pub fn run(message: impl std::fmt::Display) -> Self {
         Self {
             param: None,
-            message: message.into(),
+            message: message.to_string(),
         }
     }
 
@@ -75,7 +75,7 @@ impl ParamError {
     }
 }
 
-impl fmt::Display for ParamError {
+impl fmt::Display for RunParamError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match &self.param {
             Some(p) => write!(f, "parameter `{p}`: {}", self.message),
@@ -84,7 +84,7 @@ impl fmt::Display for ParamError {
     }
 }
 
-impl std::error::Error for ParamError {}
+impl std::error::Error for RunParamError {}
 
 /// What a type expects, in the words of the manifest: serde names Rust's
 /// types (`u32`, `f64`), a manifest writer thinks in integers and numbers.
@@ -108,7 +108,7 @@ pub(crate) fn quoted<'a>(names: impl IntoIterator<Item = &'a str>) -> String {
         .join(", ")
 }
 
-impl serde::de::Error for ParamError {
+impl serde::de::Error for RunParamError {
     fn custom<T: fmt::Display>(msg: T) -> Self {
         Self::run(msg.to_string())
     }
@@ -157,12 +157,12 @@ pub trait Params: Sized {
     fn names() -> Vec<&'static str>;
 
     /// Read these parameters (each one of [`Params::names`]).
-    fn from_params(params: &[&RunParam]) -> Result<Self, ParamError>;
+    fn from_params(params: &[&RunParam]) -> Result<Self, RunParamError>;
 
     /// Read the parameters of a run. Parameters the study does not read
     /// are left out: the manifest allows them only as helpers that a
     /// `{name}` template uses, and rejects the others when it is loaded.
-    fn from_run(run: &RunPoint) -> Result<Self, ParamError> {
+    fn from_run(run: &RunPoint) -> Result<Self, RunParamError> {
         let names = Self::names();
         let mine: Vec<&RunParam> = run
             .params
@@ -190,7 +190,7 @@ macro_rules! typed_params {
 
             fn from_params(
                 params: &[&$crate::experiment::sweep::RunParam],
-            ) -> Result<Self, $crate::experiment::params::ParamError> {
+            ) -> Result<Self, $crate::experiment::params::RunParamError> {
                 $crate::experiment::params::de::from_params(params)
             }
         }
@@ -211,13 +211,13 @@ impl<A: Params, B: Params> Params for (A, B) {
         n
     }
 
-    fn from_params(params: &[&RunParam]) -> Result<Self, ParamError> {
+    fn from_params(params: &[&RunParam]) -> Result<Self, RunParamError> {
         let (a, b) = (A::names(), B::names());
         if let Some(p) = params
             .iter()
             .find(|p| !a.contains(&p.name.as_str()) && !b.contains(&p.name.as_str()))
         {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 &p.name,
                 format!("unknown parameter (known: {})", quoted(Self::names())),
             ));
@@ -234,40 +234,44 @@ impl<A: Params, B: Params> Params for (A, B) {
 }
 
 /// A value written as a string and parsed by its own parser (sampler and
-/// accelerator names, "WxH", …), whose error text becomes the message.
+/// accelerator names, "WxH", …), whose error becomes the message: a
+/// [`RunParamError`] of the run as a whole, which the deserializer blames on
+/// the parameter being read.
 pub trait FromParam: Sized {
     /// Parse the string a manifest gives.
-    fn from_param(s: &str) -> Result<Self, String>;
+    fn from_param(s: &str) -> Result<Self, RunParamError>;
 }
 
 impl FromParam for Sampler {
-    fn from_param(s: &str) -> Result<Self, String> {
-        Sampler::parse(s)
+    fn from_param(s: &str) -> Result<Self, RunParamError> {
+        Sampler::parse(s).map_err(RunParamError::run)
     }
 }
 
 impl FromParam for Filter {
-    fn from_param(s: &str) -> Result<Self, String> {
-        Filter::parse(s)
+    fn from_param(s: &str) -> Result<Self, RunParamError> {
+        Filter::parse(s).map_err(RunParamError::run)
     }
 }
 
 impl FromParam for AccelKind {
-    fn from_param(s: &str) -> Result<Self, String> {
-        s.parse::<AccelKind>().map_err(|e| e.to_string())
+    fn from_param(s: &str) -> Result<Self, RunParamError> {
+        s.parse::<AccelKind>()
+            .map_err(|e| RunParamError::run(e.to_string()))
     }
 }
 
 impl FromParam for IntegratorKind {
-    fn from_param(s: &str) -> Result<Self, String> {
-        IntegratorKind::parse(s)
+    fn from_param(s: &str) -> Result<Self, RunParamError> {
+        IntegratorKind::parse(s).map_err(RunParamError::run)
     }
 }
 
 #[cfg(feature = "embree")]
 impl FromParam for raylab::accel::EmbreeConfig {
-    fn from_param(s: &str) -> Result<Self, String> {
-        s.parse::<Self>().map_err(|e| e.to_string())
+    fn from_param(s: &str) -> Result<Self, RunParamError> {
+        s.parse::<Self>()
+            .map_err(|e| RunParamError::run(e.to_string()))
     }
 }
 
@@ -302,10 +306,10 @@ pub fn or_default<T: FromParam>(
     value: Option<T>,
     name: &str,
     default: &str,
-) -> Result<T, ParamError> {
+) -> Result<T, RunParamError> {
     match value {
         Some(v) => Ok(v),
-        None => T::from_param(default).map_err(|e| ParamError::new(name, e)),
+        None => T::from_param(default).map_err(|e| e.of_param(name)),
     }
 }
 
@@ -373,9 +377,10 @@ impl Resolution {
 }
 
 impl FromParam for Resolution {
-    fn from_param(s: &str) -> Result<Self, String> {
-        Resolution::parse(s)
-            .ok_or_else(|| format!("`{s}` is not \"WxH\" with sides in 1..={MAX_SIDE}"))
+    fn from_param(s: &str) -> Result<Self, RunParamError> {
+        Resolution::parse(s).ok_or_else(|| {
+            RunParamError::run(format!("`{s}` is not \"WxH\" with sides in 1..={MAX_SIDE}"))
+        })
     }
 }
 
@@ -387,12 +392,12 @@ pub fn existing_file(
     name: &str,
     rel: &str,
     what: &str,
-) -> Result<PathBuf, ParamError> {
+) -> Result<PathBuf, RunParamError> {
     let path = base_dir.join(rel);
     if path.is_file() {
         Ok(path)
     } else {
-        Err(ParamError::new(
+        Err(RunParamError::new(
             name,
             format!("{}: no such {what} file", path.display()),
         ))

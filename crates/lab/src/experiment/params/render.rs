@@ -3,7 +3,9 @@
 //! of its sampler, accelerator, image size, depth, seed and filter, as
 //! `raylab render` takes them.
 
-use super::{existing_file, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution};
+use super::{
+    existing_file, parsed_opt, typed_params, InRange, ParamDoc, Resolution, RunParamError,
+};
 use raylab::accel::AccelKind;
 use raylab::film::Filter;
 use raylab::io::scene_file::Overrides;
@@ -99,19 +101,19 @@ pub struct RenderConfig {
 
 /// The `scene` parameter: a scene file relative to the manifest's folder,
 /// checked to exist.
-pub fn scene_file(base_dir: &Path, rel: &str) -> Result<PathBuf, ParamError> {
+pub fn scene_file(base_dir: &Path, rel: &str) -> Result<PathBuf, RunParamError> {
     existing_file(base_dir, "scene", rel, "scene")
 }
 
 impl RenderParams {
     /// Check the parameters together and resolve the scene file.
-    pub fn config(&self, base_dir: &Path) -> Result<RenderConfig, ParamError> {
+    pub fn config(&self, base_dir: &Path) -> Result<RenderConfig, RunParamError> {
         let scene = scene_file(base_dir, &self.scene)?;
         let side = |v: Option<InRange<1, SIDE>>| v.map(|v| v.get() as u32);
         let (mut width, mut height) = (side(self.width), side(self.height));
         if let Some(r) = self.resolution {
             if width.is_some() || height.is_some() {
-                return Err(ParamError::new(
+                return Err(RunParamError::new(
                     "resolution",
                     "give `resolution` or `width`/`height`, not both",
                 ));

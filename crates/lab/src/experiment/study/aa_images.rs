@@ -27,19 +27,20 @@
 
 use super::{RunContext, Study, Timings};
 use crate::analysis::metrics::{compare, flip_error_map, write_flip_map};
-use crate::analysis::plot::{Heatmap, LineChart, Palette, Scale, Series, SeriesStyle};
+use crate::analysis::plot::{AxisScale, Heatmap, LineChart, Palette, Series, SeriesStyle};
 use crate::analysis::spectrum::{power_spectrum, radial_profile};
 use crate::experiment::data::Table;
 use crate::experiment::params::render::{RenderConfig, RenderParams};
-use crate::experiment::params::{or_default, parsed_opt, typed_params, ParamDoc, ParamError};
+use crate::experiment::params::{or_default, parsed_opt, typed_params, ParamDoc, RunParamError};
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
-use anyhow::Context;
+use crate::{Error, FileOp};
 use ndarray::Array2;
 use raylab::film::Filter;
 use raylab::integrator::{render, Whitted};
 use raylab::io::image::{read_image, write_image, LinearImage};
 use raylab::io::scene_file::load_scene;
+use raylab::io::InputError;
 use raylab::math::{luminance, Color};
 use raylab::sampler::Sampler;
 use raylab::stats::{NoStats, RayCounts};
@@ -144,11 +145,11 @@ impl Study for AaImages {
         &self,
         (render, own): (RenderParams, AaParams),
         base_dir: &Path,
-    ) -> Result<AaConfig, ParamError> {
+    ) -> Result<AaConfig, RunParamError> {
         let render = render.config(base_dir)?;
         let reference = or_default(own.reference, "reference", DEFAULT_REFERENCE)?;
         if reference.is_adaptive() {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "reference",
                 "the reference needs a fixed sample count, not the adaptive sampler",
             ));
@@ -163,11 +164,11 @@ impl Study for AaImages {
     /// Overlay the error spectra of the runs that share a sweep, a scene
     /// and a nominal sample count (adaptive runs, whose counts differ per
     /// pixel, are left to the cost–quality figures).
-    fn figures(&self, table: &Table, out_dir: &Path) -> anyhow::Result<Vec<String>> {
+    fn figures(&self, table: &Table, out_dir: &Path) -> Result<Vec<String>, Error> {
         let col = |name: &str| {
-            table
-                .column(name)
-                .ok_or_else(|| anyhow::anyhow!("data.csv has no column `{name}`"))
+            table.column(name).ok_or_else(|| Error::MissingColumn {
+                column: name.to_string(),
+            })
         };
         let (sweep, scene, spp, sampler, filter, family, csv) = (
             col("sweep")?,
@@ -199,7 +200,7 @@ impl Study for AaImages {
                 "frequency (cycles per pixel; Nyquist 0.5)".to_string(),
                 "radial mean of |DFT(luminance error)|² / pixels".to_string(),
             );
-            chart.y_scale = Scale::Log10;
+            chart.y_scale = AxisScale::Log10;
             for row in rows {
                 let label = match row[filter].as_str() {
                     "box" => row[sampler].clone(),
@@ -222,7 +223,7 @@ impl Study for AaImages {
         cfg: AaConfig,
         _run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<AaImagesRow> {
+    ) -> Result<AaImagesRow, Error> {
         let scene = load_scene(&cfg.render.scene, &cfg.render.overrides)?;
         let (w, h) = (scene.camera.width, scene.camera.height);
         let reference_path = reference_file(ctx.out_dir, &cfg.render.scene, w, h, &cfg.reference);
@@ -233,8 +234,11 @@ impl Study for AaImages {
         });
         let (film, RayCounts(counts)) = render::<_, RayCounts>(&scene, &Whitted, None);
         let image = film.image();
-        let m = compare(&image, &reference)
-            .with_context(|| format!("comparing with {}", reference_path.display()))?;
+        let m = compare(&image, &reference).map_err(|error| Error::Compare {
+            test: None,
+            reference: reference_path.clone(),
+            error,
+        })?;
         let pixels = u64::from(w) * u64::from(h);
         let (_, max_rays) = film.samples_per_pixel();
         let settings = &scene.settings;
@@ -256,7 +260,7 @@ impl Study for AaImages {
         write_profile(&ctx.out_dir.join(&spectrum_csv), &profile)?;
         if cfg.images {
             let dir = ctx.out_dir.join("images");
-            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, FileOp::CreateFolder, e))?;
             write_image(&dir.join(format!("{stem}.png")), &image)?;
             let map = flip_error_map(&image, &reference)?;
             write_flip_map(&dir.join(format!("{stem}-flip.png")), &map)?;
@@ -326,20 +330,19 @@ fn luminance_error(test: &LinearImage, reference: &LinearImage) -> Array2<f64> {
 }
 
 /// Write a radial profile as CSV: `cycles_per_pixel,power`.
-fn write_profile(path: &Path, profile: &[(f64, f64)]) -> anyhow::Result<()> {
+fn write_profile(path: &Path, profile: &[(f64, f64)]) -> Result<(), Error> {
     let dir = path.parent().expect("profiles live in a folder");
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, FileOp::CreateFolder, e))?;
     let mut text = String::from("cycles_per_pixel,power\n");
     for (f, p) in profile {
         text.push_str(&format!("{f:.6},{p:.6e}\n"));
     }
-    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+    std::fs::write(path, text).map_err(|e| Error::io(path, FileOp::Write, e))
 }
 
 /// Read a profile written by [`write_profile`].
-fn read_profile(path: &Path) -> anyhow::Result<Vec<(f64, f64)>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+fn read_profile(path: &Path) -> Result<Vec<(f64, f64)>, Error> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, FileOp::Read, e))?;
     text.lines()
         .enumerate()
         .skip(1)
@@ -348,11 +351,12 @@ fn read_profile(path: &Path) -> anyhow::Result<Vec<(f64, f64)>> {
             let mut cells = line.split(',');
             match (parse(cells.next()), parse(cells.next())) {
                 (Some(f), Some(p)) => Ok((f, p)),
-                _ => Err(anyhow::anyhow!(
-                    "{}:{}: expected `cycles_per_pixel,power`, got `{line}`",
-                    path.display(),
-                    i + 1
-                )),
+                _ => Err(InputError::line(
+                    path,
+                    i + 1,
+                    format!("expected `cycles_per_pixel,power`, got `{line}`"),
+                )
+                .into()),
             }
         })
         .collect()
@@ -375,7 +379,7 @@ fn reference_file(out_dir: &Path, scene: &Path, w: u32, h: u32, sampler: &Sample
 /// Read the reference, or render and keep it when it is not there yet. It
 /// is the run's scene with the reference sampler, the box filter and the
 /// run's seed (other overrides as the run's, so the geometry matches).
-fn reference_image(cfg: &AaConfig, path: &Path) -> anyhow::Result<LinearImage> {
+fn reference_image(cfg: &AaConfig, path: &Path) -> Result<LinearImage, Error> {
     if path.is_file() {
         return Ok(read_image(path)?);
     }
@@ -386,7 +390,7 @@ fn reference_image(cfg: &AaConfig, path: &Path) -> anyhow::Result<LinearImage> {
     let (film, _) = render::<_, NoStats>(&scene, &Whitted, None);
     let image = film.image();
     let dir = path.parent().expect("reference files live in a folder");
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    write_image(path, &image).with_context(|| format!("writing {}", path.display()))?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, FileOp::CreateFolder, e))?;
+    write_image(path, &image).map_err(|e| Error::writing(path, e))?;
     Ok(image)
 }

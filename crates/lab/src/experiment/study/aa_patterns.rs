@@ -25,10 +25,11 @@ use crate::analysis::spectrum::{
     PatternSpectrum, RadialCurve, MAX_FREQ, MAX_SETS,
 };
 use crate::experiment::data::Table;
-use crate::experiment::params::{parsed, typed_params, InRange, ParamDoc, ParamError};
+use crate::experiment::params::{parsed, typed_params, InRange, ParamDoc, RunParamError};
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
-use anyhow::{anyhow, Context};
+use crate::Error;
+use raylab::io::InputError;
 use raylab::sampler::Sampler;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -86,14 +87,14 @@ const DEFAULT_FREQ: usize = 32;
 const DEFAULT_SEED: u64 = 1;
 
 /// A run's parameters, checked.
-pub struct Config {
+pub struct AaPatternsConfig {
     sampler: Sampler,
     sets: usize,
     freq: usize,
     seed: u64,
 }
 
-impl Config {
+impl AaPatternsConfig {
     /// The stem of this run's files.
     fn stem(&self) -> String {
         format!(
@@ -139,14 +140,18 @@ pub struct AaPatternsRow {
 
 impl Study for AaPatterns {
     type Params = AaPatternsParams;
-    type Config = Config;
+    type Config = AaPatternsConfig;
     type Row = AaPatternsRow;
 
-    fn configure(&self, p: AaPatternsParams, _base_dir: &Path) -> Result<Config, ParamError> {
+    fn configure(
+        &self,
+        p: AaPatternsParams,
+        _base_dir: &Path,
+    ) -> Result<AaPatternsConfig, RunParamError> {
         let sets = p.sets.map_or(DEFAULT_SETS, |v| v.get() as usize);
         let freq = p.freq.map_or(DEFAULT_FREQ, |v| v.get() as usize);
-        check_sets_and_freq(sets, freq).map_err(|e| ParamError::new("sets", e))?;
-        Ok(Config {
+        check_sets_and_freq(sets, freq).map_err(|e| RunParamError::new("sets", e.to_string()))?;
+        Ok(AaPatternsConfig {
             sampler: p.sampler,
             sets,
             freq,
@@ -156,10 +161,10 @@ impl Study for AaPatterns {
 
     fn run(
         &self,
-        cfg: Config,
+        cfg: AaPatternsConfig,
         run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<AaPatternsRow> {
+    ) -> Result<AaPatternsRow, Error> {
         // The label as the manifest writes it (legends of the overlays).
         let label = run
             .get("sampler")
@@ -190,11 +195,11 @@ impl Study for AaPatterns {
         })
     }
 
-    fn figures(&self, table: &Table, out_dir: &Path) -> anyhow::Result<Vec<String>> {
+    fn figures(&self, table: &Table, out_dir: &Path) -> Result<Vec<String>, Error> {
         let col = |name: &str| {
-            table
-                .column(name)
-                .ok_or_else(|| anyhow!("data.csv has no column `{name}`"))
+            table.column(name).ok_or_else(|| Error::MissingColumn {
+                column: name.to_string(),
+            })
         };
         let (spp_col, csv_col) = (col("spp")?, col("radial_csv")?);
         // Curves grouped by sample count, in the order of the rows; one
@@ -207,9 +212,12 @@ impl Study for AaPatterns {
                 continue;
             }
             seen.push(file.clone());
-            let spp: usize = row[spp_col]
-                .parse()
-                .with_context(|| format!("data.csv: spp `{}` is not a count", row[spp_col]))?;
+            let spp: usize = row[spp_col].parse().map_err(|e| {
+                InputError::file(
+                    "data.csv",
+                    format!("spp `{}` is not a count: {e}", row[spp_col]),
+                )
+            })?;
             let curves = read_rings_csv(&out_dir.join(file))?;
             groups.entry(spp).or_default().extend(curves);
         }
@@ -250,7 +258,7 @@ mod tests {
         }
     }
 
-    fn config(run: &RunPoint) -> Result<Config, ParamError> {
+    fn config(run: &RunPoint) -> Result<AaPatternsConfig, RunParamError> {
         AaPatterns.configure(AaPatternsParams::from_run(run)?, Path::new("."))
     }
 

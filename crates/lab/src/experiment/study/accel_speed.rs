@@ -38,10 +38,11 @@
 use super::{RunContext, Study, Timings};
 use crate::experiment::params::render::scene_file;
 use crate::experiment::params::{
-    or_default, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    or_default, parsed_opt, typed_params, InRange, ParamDoc, Resolution, RunParamError,
 };
 use crate::experiment::row::{Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
+use crate::Error;
 use raylab::accel::{Accel, AccelKind, Accelerator};
 use raylab::io::scene_file::{load_scene, Overrides};
 use raylab::scene::Scene;
@@ -132,7 +133,7 @@ typed_params!(
 );
 
 /// A run's parameters, checked.
-pub struct Config {
+pub struct AccelSpeedConfig {
     scene: PathBuf,
     accel: AccelKind,
     reference: AccelKind,
@@ -280,15 +281,19 @@ pub struct AccelSpeedRow {
 
 impl Study for AccelSpeed {
     type Params = AccelSpeedParams;
-    type Config = Config;
+    type Config = AccelSpeedConfig;
     type Row = AccelSpeedRow;
 
-    fn configure(&self, p: AccelSpeedParams, base_dir: &Path) -> Result<Config, ParamError> {
+    fn configure(
+        &self,
+        p: AccelSpeedParams,
+        base_dir: &Path,
+    ) -> Result<AccelSpeedConfig, RunParamError> {
         let res = p.resolution.unwrap_or(Resolution {
             width: 800,
             height: 600,
         });
-        Ok(Config {
+        Ok(AccelSpeedConfig {
             scene: scene_file(base_dir, &p.scene)?,
             accel: or_default(p.accel, "accel", "bvh")?,
             reference: or_default(p.reference, "reference", "embree:high+robust")?,
@@ -303,10 +308,10 @@ impl Study for AccelSpeed {
 
     fn run(
         &self,
-        cfg: Config,
+        cfg: AccelSpeedConfig,
         _run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<AccelSpeedRow> {
+    ) -> Result<AccelSpeedRow, Error> {
         let overrides = Overrides {
             width: Some(cfg.width),
             height: Some(cfg.height),
@@ -333,7 +338,7 @@ impl Study for AccelSpeed {
                 Accelerator::build(kind, &scene.prims, bounded.clone())
             });
             let accel = Accelerator::build(kind, &scene.prims, bounded.clone())
-                .map_err(|e| anyhow::anyhow!("building `{kind}`: {e}"))?;
+                .map_err(Error::accel(kind))?;
             build_s[i] = Secs(build.median());
             sides.push(accel);
         }
@@ -341,7 +346,8 @@ impl Study for AccelSpeed {
         let work = Workload::from_scene(&scene, random, cfg.seed);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(cfg.threads)
-            .build()?;
+            .build()
+            .map_err(Error::Threads)?;
         let mut kinds = PerKind::default();
         let mut peer = [PeerCells::default(); 4];
         for (j, (k, cells)) in Workload::KINDS.into_iter().zip(&mut kinds.0).enumerate() {

@@ -7,11 +7,12 @@
 
 use super::{RunContext, Study};
 use crate::experiment::params::{
-    existing_file, or_default, parsed_opt, typed_params, InRange, ParamDoc, ParamError,
+    existing_file, or_default, parsed_opt, typed_params, InRange, ParamDoc, RunParamError,
 };
 use crate::experiment::row::{Exp, Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
-use crate::validate::{random_quadrics, validate, Input, Options, Place};
+use crate::validate::{random_quadrics, validate, HitPlace, Input, ValidationOptions};
+use crate::Error;
 use raylab::accel::{AccelKind, EmbreeConfig};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -169,9 +170,9 @@ pub enum Source {
 }
 
 /// A run's parameters, checked.
-pub struct Config {
+pub struct EmbreeOracleConfig {
     source: Source,
-    options: Options,
+    options: ValidationOptions,
 }
 
 /// A category label short enough for a bar chart of a dozen inputs: the
@@ -191,34 +192,42 @@ fn per_million(count: u64, rays: u64) -> Fixed<1> {
 
 impl Study for EmbreeOracle {
     type Params = EmbreeOracleParams;
-    type Config = Config;
+    type Config = EmbreeOracleConfig;
     type Row = EmbreeOracleRow;
 
-    fn configure(&self, p: EmbreeOracleParams, base_dir: &Path) -> Result<Config, ParamError> {
+    fn configure(
+        &self,
+        p: EmbreeOracleParams,
+        base_dir: &Path,
+    ) -> Result<EmbreeOracleConfig, RunParamError> {
         let source = match (&p.mesh, p.quadrics) {
             (Some(m), None) => Source::Mesh(existing_file(base_dir, "mesh", m, "mesh")?),
             (None, Some(q)) => Source::Quadrics {
                 ellipsoids: q == Quadrics::Ellipsoids,
                 count: p.count.map_or(200, |c| c.get() as usize),
             },
-            _ => return Err(ParamError::run("give exactly one of `mesh` and `quadrics`")),
+            _ => {
+                return Err(RunParamError::run(
+                    "give exactly one of `mesh` and `quadrics`",
+                ))
+            }
         };
-        let options = Options {
+        let options = ValidationOptions {
             rays: p.rays.map_or(10_000, |r| r.get() as usize),
             seed: p.seed.unwrap_or(1),
             accels: vec![or_default(p.accel, "accel", "bvh")?],
             embree: or_default(p.embree, "embree", "embree")?,
-            ..Options::default()
+            ..ValidationOptions::default()
         };
-        Ok(Config { source, options })
+        Ok(EmbreeOracleConfig { source, options })
     }
 
     fn run(
         &self,
-        cfg: Config,
+        cfg: EmbreeOracleConfig,
         _run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<EmbreeOracleRow> {
+    ) -> Result<EmbreeOracleRow, Error> {
         let input = match &cfg.source {
             Source::Mesh(path) => Input::from_mesh(path)?,
             Source::Quadrics { ellipsoids, count } => Input {
@@ -246,17 +255,17 @@ impl Study for EmbreeOracle {
             hits: t.hits(),
             tie_edge: t.tie_edge,
             tie_coincident: t.tie_coincident,
-            edge: t.disagreements_at(Place::Edge),
-            vertex: t.disagreements_at(Place::Vertex),
-            grazing: t.disagreements_at(Place::Grazing),
-            origin: t.disagreements_at(Place::Origin),
-            elsewhere: t.disagreements_at(Place::Elsewhere),
+            edge: t.disagreements_at(HitPlace::Edge),
+            vertex: t.disagreements_at(HitPlace::Vertex),
+            grazing: t.disagreements_at(HitPlace::Grazing),
+            origin: t.disagreements_at(HitPlace::Origin),
+            elsewhere: t.disagreements_at(HitPlace::Elsewhere),
             leak_raylab: t.edge_leaks.0,
             leak_embree: t.edge_leaks.1,
             any_hit_explained: t.any_hit_explained,
             unexplained: t.unexplained(),
-            edge_per_million: per_million(t.disagreements_at(Place::Edge), t.rays),
-            vertex_per_million: per_million(t.disagreements_at(Place::Vertex), t.rays),
+            edge_per_million: per_million(t.disagreements_at(HitPlace::Edge), t.rays),
+            vertex_per_million: per_million(t.disagreements_at(HitPlace::Vertex), t.rays),
             rel_dt_p50: Exp(dt[0]),
             rel_dt_p99: Exp(dt[1]),
             rel_dt_max: Exp(dt[2]),

@@ -21,13 +21,14 @@
 //! log scale shared by all snapshots of the run (solid voxels grey).
 
 use super::{median, RunContext, Study};
-use crate::analysis::plot::{ImageGrid, LineChart, Palette, Scale, Series, SeriesStyle};
+use crate::analysis::plot::{AxisScale, ImageGrid, LineChart, Palette, Series, SeriesStyle};
 use crate::experiment::params::render::scene_file;
 use crate::experiment::params::{
-    parsed_opt, typed_params, FromParam, InRange, ParamDoc, ParamError,
+    parsed_opt, typed_params, FromParam, InRange, ParamDoc, RunParamError,
 };
 use crate::experiment::row::{Exp, Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
+use crate::Error;
 use ndarray::Array3;
 use raylab::gi::voxel::MAX_RESOLUTION;
 use raylab::gi::{Averaging, FloodFill, FloodFillConfig, GridSpec, Residual, Threads, VoxelGrid};
@@ -61,16 +62,16 @@ pub struct BoxParam {
 }
 
 impl FromParam for BoxParam {
-    fn from_param(s: &str) -> Result<Self, String> {
+    fn from_param(s: &str) -> Result<Self, RunParamError> {
         let v: Vec<f32> = s
             .split_whitespace()
             .map(str::parse::<f32>)
             .collect::<Result<_, _>>()
-            .map_err(|_| format!("`{s}`: expected six numbers"))?;
+            .map_err(|_| RunParamError::run(format!("`{s}`: expected six numbers")))?;
         if v.len() != 6 || v.iter().any(|x| !x.is_finite()) {
-            return Err(format!(
+            return Err(RunParamError::run(format!(
                 "`{s}`: expected six finite numbers \"x0 y0 z0 x1 y1 z1\""
-            ));
+            )));
         }
         let (a, b) = (Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]));
         Ok(BoxParam {
@@ -224,7 +225,7 @@ pub struct FloodFillRow {
 }
 
 /// A run's parameters, checked.
-pub struct Config {
+pub struct FloodFillStudyConfig {
     scene: PathBuf,
     resolution: usize,
     ff: FloodFillConfig,
@@ -319,10 +320,14 @@ fn run_tag(run: &RunPoint) -> String {
 
 impl Study for FloodFillStudy {
     type Params = FloodFillParams;
-    type Config = Config;
+    type Config = FloodFillStudyConfig;
     type Row = FloodFillRow;
 
-    fn configure(&self, p: FloodFillParams, base_dir: &Path) -> Result<Config, ParamError> {
+    fn configure(
+        &self,
+        p: FloodFillParams,
+        base_dir: &Path,
+    ) -> Result<FloodFillStudyConfig, RunParamError> {
         let mut ff = FloodFillConfig::default();
         if let Some(a) = p.alpha {
             ff.alpha = a as f32;
@@ -337,20 +342,20 @@ impl Study for FloodFillStudy {
         if let Some(m) = p.max_irradiance {
             ff.max_irradiance = m as f32;
         }
-        ff.validate().map_err(ParamError::run)?;
+        ff.validate().map_err(RunParamError::run)?;
         let tolerance = p.tolerance.unwrap_or(1e-4);
         if tolerance <= 0.0 {
-            return Err(ParamError::new("tolerance", "must be positive"));
+            return Err(RunParamError::new("tolerance", "must be positive"));
         }
         let slice = p.slice.unwrap_or(0.5);
         if !(0.0..=1.0).contains(&slice) {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "slice",
                 format!("must be in [0, 1], got {slice}"),
             ));
         }
         let corners = |b: Option<BoxParam>| b.map(|b| (b.min, b.max));
-        Ok(Config {
+        Ok(FloodFillStudyConfig {
             scene: scene_file(base_dir, &p.scene)?,
             resolution: p.resolution.map_or(64, |r| r.get() as usize),
             ff,
@@ -365,20 +370,20 @@ impl Study for FloodFillStudy {
 
     fn run(
         &self,
-        cfg: Config,
+        cfg: FloodFillStudyConfig,
         run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<FloodFillRow> {
+    ) -> Result<FloodFillRow, Error> {
         let scene = load_scene(&cfg.scene, &Overrides::default())?;
         let start = Instant::now();
         let grid = VoxelGrid::from_scene(&scene, &GridSpec::new(cfg.resolution))
-            .map_err(|e| anyhow::anyhow!("{}: {e}", cfg.scene.display()))?;
+            .map_err(|e| Error::scene(&cfg.scene, Error::Cache(e)))?;
         let mut ff = FloodFill::new(
             &grid,
             cfg.ff,
             raylab::gi::wall_light(&scene, &cfg.ff, raylab::gi::DEFAULT_WALL_LIGHT_SAMPLES),
         )
-        .map_err(anyhow::Error::msg)?;
+        .map_err(Error::Cache)?;
         let build_s = start.elapsed().as_secs_f64();
 
         let dims = grid.dims();
@@ -454,7 +459,7 @@ impl Study for FloodFillStudy {
                 "‖I(t+1) − I(t)‖",
             );
             chart.series = vec![series("L2", |r| r.l2), series("max", |r| r.max)];
-            chart.y_scale = Scale::Log10;
+            chart.y_scale = AxisScale::Log10;
             chart.save(&ctx.out_dir.join(format!("residual-{tag}")))?;
 
             // One log scale for all snapshots: the last one's largest

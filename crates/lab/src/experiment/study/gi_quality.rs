@@ -58,15 +58,18 @@ use crate::analysis::metrics::{compare, flip_error_map, mse};
 use crate::analysis::plot::{ImageGrid, Palette};
 use crate::experiment::params::render::scene_file;
 use crate::experiment::params::{
-    existing_file, or_default, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    existing_file, or_default, parsed_opt, typed_params, InRange, ParamDoc, Resolution,
+    RunParamError,
 };
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
+use crate::Error;
 use ndarray::Array3;
 use raylab::accel::AccelKind;
 use raylab::integrator::IntegratorKind;
 use raylab::io::image::{read_exr_channels, read_image, LinearImage};
 use raylab::io::scene_file::{load_scene, Overrides};
+use raylab::io::InputError;
 use raylab::math::srgb_decode;
 use raylab::sampler::Sampler;
 use raylab::scene::Scene;
@@ -183,7 +186,7 @@ const DEFAULT_REFERENCE_INTEGRATOR: &str = "path:64";
 const REFERENCE_SEED: u64 = 1 << 62;
 
 /// A run's parameters, checked.
-pub struct Config {
+pub struct GiQualityConfig {
     scene: PathBuf,
     integrator: IntegratorKind,
     overrides: Overrides,
@@ -191,11 +194,11 @@ pub struct Config {
     seed: u64,
     /// Upper clamp of values before the error metrics (`None`: none).
     clamp: Option<f32>,
-    reference: Reference,
+    reference: ReferenceSource,
 }
 
 /// Where the reference image comes from.
-enum Reference {
+enum ReferenceSource {
     File(PathBuf),
     Generate {
         integrator: IntegratorKind,
@@ -250,16 +253,25 @@ pub struct GiQualityRow {
     pub reference: String,
 }
 
-/// The reference image and the mean variance of its pixel values (0 when
-/// unknown).
+/// A run's reference image.
+struct ReferenceImage {
+    /// Its file.
+    path: PathBuf,
+    /// The image.
+    image: LinearImage,
+    /// The mean variance of its pixel values (0 when unknown).
+    variance: f64,
+}
+
+/// The reference image, read or rendered.
 fn reference_image(
-    cfg: &Config,
+    cfg: &GiQualityConfig,
     scene: &Scene,
     out_dir: &Path,
-) -> anyhow::Result<(PathBuf, LinearImage, f64)> {
+) -> Result<ReferenceImage, Error> {
     let path = match &cfg.reference {
-        Reference::File(p) => p.clone(),
-        Reference::Generate { integrator, spp } => {
+        ReferenceSource::File(p) => p.clone(),
+        ReferenceSource::Generate { integrator, spp } => {
             let stem = cfg
                 .scene
                 .file_stem()
@@ -277,14 +289,19 @@ fn reference_image(
                 s.settings.seed = REFERENCE_SEED;
                 let (film, _) = integrator
                     .render::<NoStats>(&s, None)
-                    .map_err(anyhow::Error::msg)?;
+                    .map_err(Error::Render)?;
                 raylab::io::image::write_film_exr(&path, &film)?;
             }
             path
         }
     };
-    let img = read_image(&path)?;
-    Ok((path.clone(), img, reference_variance(&path)))
+    let image = read_image(&path)?;
+    let variance = reference_variance(&path);
+    Ok(ReferenceImage {
+        path,
+        image,
+        variance,
+    })
 }
 
 /// Mean over pixels and channels of variance/count, from an EXR written by
@@ -325,15 +342,22 @@ fn coloured_map(map: &ndarray::Array2<f32>) -> LinearImage {
 
 impl Study for GiQuality {
     type Params = GiQualityParams;
-    type Config = Config;
+    type Config = GiQualityConfig;
     type Row = GiQualityRow;
 
-    fn configure(&self, p: GiQualityParams, base_dir: &Path) -> Result<Config, ParamError> {
+    fn configure(
+        &self,
+        p: GiQualityParams,
+        base_dir: &Path,
+    ) -> Result<GiQualityConfig, RunParamError> {
         let scene = scene_file(base_dir, &p.scene)?;
         let integrator = or_default(p.integrator, "integrator", "path:4")?;
         let sampler = match (p.sampler, p.spp) {
             (Some(_), Some(_)) => {
-                return Err(ParamError::new("spp", "give `spp` or `sampler`, not both"));
+                return Err(RunParamError::new(
+                    "spp",
+                    "give `spp` or `sampler`, not both",
+                ));
             }
             (Some(s), None) => Some(s),
             (None, Some(n)) => Some(Sampler::Random { n: n.get() as u32 }),
@@ -343,7 +367,7 @@ impl Study for GiQuality {
         let clamp = match p.clamp {
             None => Some(1.0),
             Some(c) if c < 0.0 => {
-                return Err(ParamError::new(
+                return Err(RunParamError::new(
                     "clamp",
                     format!("must be a number of at least 0, got {c}"),
                 ))
@@ -352,8 +376,8 @@ impl Study for GiQuality {
             Some(c) => Some(c as f32),
         };
         let reference = match &p.reference {
-            Some(r) => Reference::File(existing_file(base_dir, "reference", r, "image")?),
-            None => Reference::Generate {
+            Some(r) => ReferenceSource::File(existing_file(base_dir, "reference", r, "image")?),
+            None => ReferenceSource::Generate {
                 integrator: or_default(
                     p.reference_integrator,
                     "reference_integrator",
@@ -364,7 +388,7 @@ impl Study for GiQuality {
                     .map_or(DEFAULT_REFERENCE_SPP, |n| n.get() as u32),
             },
         };
-        Ok(Config {
+        Ok(GiQualityConfig {
             scene,
             integrator,
             overrides: Overrides {
@@ -385,38 +409,46 @@ impl Study for GiQuality {
 
     fn run(
         &self,
-        cfg: Config,
+        cfg: GiQualityConfig,
         _run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<GiQualityRow> {
+    ) -> Result<GiQualityRow, Error> {
         let mut scene = load_scene(&cfg.scene, &cfg.overrides)?;
         let clamped = |img: LinearImage| match cfg.clamp {
             Some(hi) => img.mapv(|v| v.clamp(0.0, hi)),
             None => img,
         };
-        let (ref_path, reference, ref_var) = reference_image(&cfg, &scene, ctx.out_dir)?;
+        let ReferenceImage {
+            path: ref_path,
+            image: reference,
+            variance: ref_var,
+        } = reference_image(&cfg, &scene, ctx.out_dir)?;
         let reference = clamped(reference);
         let (w, h) = (scene.camera.width, scene.camera.height);
-        anyhow::ensure!(
-            reference.dim() == (h as usize, w as usize, 3),
-            "{}: reference is {}×{}, the renders are {w}×{h}",
-            ref_path.display(),
-            reference.dim().1,
-            reference.dim().0
-        );
+        if reference.dim() != (h as usize, w as usize, 3) {
+            return Err(InputError::file(
+                &ref_path,
+                format!(
+                    "reference is {}×{}, the renders are {w}×{h}",
+                    reference.dim().1,
+                    reference.dim().0
+                ),
+            )
+            .into());
+        }
 
         // Flood fill builds and warms its cache once, before the frames
         // (reported as `setup_s`); each frame then runs its propagation
         // steps and the render.
         let setup = Instant::now();
-        let mut prepared = cfg.integrator.prepare(&scene).map_err(anyhow::Error::msg)?;
+        let mut prepared = cfg.integrator.prepare(&scene).map_err(Error::Render)?;
         let setup_s = setup.elapsed().as_secs_f64();
         for _ in 0..ctx.settings.warmup {
             scene.settings.seed = cfg.seed;
             std::hint::black_box(
                 prepared
                     .frame::<NoStats>(&scene, None)
-                    .map_err(anyhow::Error::msg)?,
+                    .map_err(Error::Render)?,
             );
         }
         let frames = cfg.frames as usize;
@@ -430,7 +462,7 @@ impl Study for GiQuality {
             let start = Instant::now();
             let (film, _) = prepared
                 .frame::<NoStats>(&scene, None)
-                .map_err(anyhow::Error::msg)?;
+                .map_err(Error::Render)?;
             times.push(start.elapsed().as_secs_f64());
             let img = clamped(film.image());
             let m = compare(&img, &reference)?;
@@ -461,7 +493,7 @@ impl Study for GiQuality {
         scene.settings.seed = cfg.seed;
         let (_, counters) = prepared
             .frame::<Counters>(&scene, None)
-            .map_err(anyhow::Error::msg)?;
+            .map_err(Error::Render)?;
         let pixels = f64::from(w) * f64::from(h);
 
         if let Some((frame, map)) = first {

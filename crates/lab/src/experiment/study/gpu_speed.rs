@@ -36,19 +36,19 @@
 //! limit, and manifests list the small meshes for brute force (S3 itself
 //! stopped its basic tracer at 37 986 faces).
 
-use super::accel_cost::{mesh_scene, MeshSource, ProceduralSpec};
+use super::accel_cost::{mesh_scene, LabelledMesh, MeshSource, ProceduralSpec};
 use super::{median, RunContext, Study, StudySettings, Timings};
 use crate::experiment::params::{
-    parsed, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    parsed, parsed_opt, typed_params, InRange, ParamDoc, Resolution, RunParamError,
 };
 use crate::experiment::row::{Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
-use anyhow::Context;
+use crate::Error;
 use raylab::accel::AccelKind;
 use raylab::integrator::{render, Whitted};
 use raylab::scene::Scene;
 use raylab::stats::{Counters, NoStats};
-use raylab_gpu::{Gpu, GpuTimes};
+use raylab_gpu::{Gpu, GpuError, GpuTimes};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::sync::OnceLock;
@@ -124,7 +124,7 @@ typed_params!(
 
 /// Where a run traces its rays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Device {
+pub enum GpuSpeedDevice {
     /// raylab's CPU renderer, every thread of the experiment's pool.
     Cpu,
     /// The GPU port.
@@ -132,12 +132,12 @@ pub enum Device {
 }
 
 /// A run's parameters, checked.
-pub struct Config {
+pub struct GpuSpeedConfig {
     source: MeshSource,
     /// How the mesh was named in the manifest (messages).
     label: String,
     accel: AccelKind,
-    device: Device,
+    device: GpuSpeedDevice,
     width: u32,
     height: u32,
     brute_max_faces: u64,
@@ -199,8 +199,8 @@ pub struct GpuSpeedRow {
 
 /// The one GPU of the process, made on first use (creating a device takes
 /// a while, and every run of an experiment uses the same adapter).
-fn gpu() -> Result<&'static Gpu, String> {
-    static GPU: OnceLock<Result<Gpu, String>> = OnceLock::new();
+fn gpu() -> Result<&'static Gpu, GpuError> {
+    static GPU: OnceLock<Result<Gpu, GpuError>> = OnceLock::new();
     GPU.get_or_init(Gpu::new).as_ref().map_err(Clone::clone)
 }
 
@@ -232,16 +232,21 @@ fn gpu_class(software: bool) -> &'static str {
 
 impl Study for GpuSpeed {
     type Params = GpuSpeedParams;
-    type Config = Config;
+    type Config = GpuSpeedConfig;
     type Row = GpuSpeedRow;
 
-    fn configure(&self, p: GpuSpeedParams, base_dir: &Path) -> Result<Config, ParamError> {
-        let (source, label) = MeshSource::from_params(p.mesh, p.procedural, base_dir)?;
+    fn configure(
+        &self,
+        p: GpuSpeedParams,
+        base_dir: &Path,
+    ) -> Result<GpuSpeedConfig, RunParamError> {
+        let LabelledMesh { source, label } =
+            MeshSource::from_params(p.mesh, p.procedural, base_dir)?;
         let device = match p.device.as_str() {
-            "cpu" => Device::Cpu,
-            "gpu" => Device::Gpu,
+            "cpu" => GpuSpeedDevice::Cpu,
+            "gpu" => GpuSpeedDevice::Gpu,
             other => {
-                return Err(ParamError::new(
+                return Err(RunParamError::new(
                     "device",
                     format!("expected \"cpu\" or \"gpu\", got \"{other}\""),
                 ))
@@ -251,7 +256,7 @@ impl Study for GpuSpeed {
             p.accel,
             AccelKind::Brute | AccelKind::Bvh(_) | AccelKind::Bvh4
         ) {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "accel",
                 "the GPU port has no Embree and no 8-wide tree: give `brute`, `bvh2`, `bvh:VOLUME[:BUILDER]` or `bvh4` (plain `bvh` is `bvh8`)",
             ));
@@ -260,7 +265,7 @@ impl Study for GpuSpeed {
             width: 200,
             height: 200,
         });
-        Ok(Config {
+        Ok(GpuSpeedConfig {
             source,
             label,
             accel: p.accel,
@@ -286,34 +291,39 @@ impl Study for GpuSpeed {
 
     fn run(
         &self,
-        cfg: Config,
+        cfg: GpuSpeedConfig,
         _run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<GpuSpeedRow> {
+    ) -> Result<GpuSpeedRow, Error> {
         // The adapter first: a machine without one fails before the mesh
         // is loaded, CPU rows included (they are only half a comparison).
-        let gpu = gpu().map_err(anyhow::Error::msg)?;
+        let gpu = gpu()?;
         let start = Instant::now();
-        let mut scene = mesh_scene(&cfg.source, cfg.width, cfg.height)
-            .with_context(|| format!("mesh `{}`", cfg.label))?;
+        let mut scene =
+            mesh_scene(&cfg.source, cfg.width, cfg.height).map_err(|e| Error::Mesh {
+                label: cfg.label.clone(),
+                error: Box::new(e),
+            })?;
         let load_s = start.elapsed().as_secs_f64();
         let faces = scene.triangle_count() as u64;
-        anyhow::ensure!(
-            cfg.accel != AccelKind::Brute || faces <= cfg.brute_max_faces,
-            "brute force on `{}` ({faces} faces) is above brute_max_faces = {}: \
-             leave it out of the brute-force sweep or raise the limit",
-            cfg.label,
-            cfg.brute_max_faces
-        );
+        if cfg.accel == AccelKind::Brute && faces > cfg.brute_max_faces {
+            return Err(Error::Study(format!(
+                "brute force on `{}` ({faces} faces) is above brute_max_faces = {}: \
+                 leave it out of the brute-force sweep or raise the limit",
+                cfg.label, cfg.brute_max_faces
+            )));
+        }
 
         let start = Instant::now();
-        scene.set_accel(cfg.accel).map_err(anyhow::Error::msg)?;
+        scene
+            .set_accel(cfg.accel)
+            .map_err(Error::accel(cfg.accel))?;
         let build_s = start.elapsed().as_secs_f64();
 
         let settings = ctx.settings;
         let m = match cfg.device {
-            Device::Cpu => measure_cpu(&scene, settings),
-            Device::Gpu => measure_gpu(gpu, &scene, settings)?,
+            GpuSpeedDevice::Cpu => measure_cpu(&scene, settings),
+            GpuSpeedDevice::Gpu => measure_gpu(gpu, &scene, settings)?,
         };
         let median_s = median(&m.seconds);
         let trace_s = m.split.map_or(median_s, |t| t.kernel);
@@ -350,7 +360,7 @@ impl Study for GpuSpeed {
 }
 
 /// What the timed renders of a row measured.
-struct Measured {
+struct GpuSpeedMeasured {
     /// Wall-clock seconds of each timed render.
     seconds: Vec<f64>,
     /// The GPU's split of the median repeat (GPU rows).
@@ -359,26 +369,30 @@ struct Measured {
     rays: u64,
 }
 
-fn measure_cpu(scene: &Scene, settings: StudySettings) -> Measured {
+fn measure_cpu(scene: &Scene, settings: StudySettings) -> GpuSpeedMeasured {
     let timings = Timings::measure(settings.warmup, settings.repeats, || {
         render::<_, NoStats>(scene, &Whitted, None)
     });
     let (_, counters) = render::<_, Counters>(scene, &Whitted, None);
-    Measured {
+    GpuSpeedMeasured {
         seconds: timings.seconds,
         split: None,
         rays: counters.rays(),
     }
 }
 
-fn measure_gpu(gpu: &Gpu, scene: &Scene, settings: StudySettings) -> anyhow::Result<Measured> {
+fn measure_gpu(
+    gpu: &Gpu,
+    scene: &Scene,
+    settings: StudySettings,
+) -> Result<GpuSpeedMeasured, GpuError> {
     for _ in 0..settings.warmup {
-        gpu.render(scene, false).map_err(anyhow::Error::msg)?;
+        gpu.render(scene, false)?;
     }
     let mut repeats: Vec<(f64, GpuTimes)> = Vec::new();
     for _ in 0..settings.repeats {
         let start = Instant::now();
-        let out = gpu.render(scene, false).map_err(anyhow::Error::msg)?;
+        let out = gpu.render(scene, false)?;
         repeats.push((start.elapsed().as_secs_f64(), out.times));
     }
     let seconds: Vec<f64> = repeats.iter().map(|r| r.0).collect();
@@ -387,8 +401,8 @@ fn measure_gpu(gpu: &Gpu, scene: &Scene, settings: StudySettings) -> anyhow::Res
     let split = order
         .get(order.len().saturating_sub(1) / 2)
         .map(|&i| repeats[i].1);
-    let counted = gpu.render(scene, true).map_err(anyhow::Error::msg)?;
-    Ok(Measured {
+    let counted = gpu.render(scene, true)?;
+    Ok(GpuSpeedMeasured {
         seconds,
         split,
         rays: counted.total().rays(),
@@ -420,7 +434,10 @@ mod tests {
             .configure(params("gpu", "bvh2"), base)
             .ok()
             .unwrap();
-        assert_eq!((c.device, c.width, c.height), (Device::Gpu, 200, 200));
+        assert_eq!(
+            (c.device, c.width, c.height),
+            (GpuSpeedDevice::Gpu, 200, 200)
+        );
         assert_eq!(c.brute_max_faces, DEFAULT_BRUTE_MAX_FACES);
         let e = GpuSpeed
             .configure(params("tpu", "bvh2"), base)

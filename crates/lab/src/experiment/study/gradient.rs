@@ -18,12 +18,13 @@ use super::{RunContext, Study, StudySettings, Timings};
 use crate::analysis::plot::Heatmap;
 use crate::experiment::params::render::scene_file;
 use crate::experiment::params::{
-    parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    parsed_opt, typed_params, InRange, ParamDoc, Resolution, RunParamError,
 };
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
+use crate::{Error, FileOp};
 use raylab::accel::AccelKind;
-use raylab::diff::{self, GradientRender, Renderer};
+use raylab::diff::{self, DiffError, GradientRender, Renderer};
 use raylab::integrator::IntegratorKind;
 use raylab::io::scene_file::Overrides;
 use raylab::sampler::Sampler;
@@ -144,7 +145,7 @@ enum What {
 }
 
 /// A run's parameters, checked.
-pub struct Config {
+pub struct GradientConfig {
     scene: PathBuf,
     integrator: IntegratorKind,
     overrides: Overrides,
@@ -203,10 +204,10 @@ pub struct GradientRow {
 pub(super) fn differentiable_integrator(
     integrator: Option<IntegratorKind>,
     roulette: Option<bool>,
-) -> Result<IntegratorKind, ParamError> {
+) -> Result<IntegratorKind, RunParamError> {
     let integrator = integrator.unwrap_or(IntegratorKind::Whitted);
     if let IntegratorKind::FloodFill(_) = integrator {
-        return Err(ParamError::new(
+        return Err(RunParamError::new(
             "integrator",
             "derivatives are rendered for `whitted`, `direct` or `path:K`",
         ));
@@ -219,11 +220,14 @@ pub(super) fn differentiable_integrator(
 }
 
 /// A finite-difference step parameter `name`: absent, or positive.
-pub(super) fn positive_step(name: &'static str, v: Option<f64>) -> Result<Option<f32>, ParamError> {
+pub(super) fn positive_step(
+    name: &'static str,
+    v: Option<f64>,
+) -> Result<Option<f32>, RunParamError> {
     match v {
         None => Ok(None),
         Some(h) if h > 0.0 && h.is_finite() => Ok(Some(h as f32)),
-        Some(h) => Err(ParamError::new(
+        Some(h) => Err(RunParamError::new(
             name,
             format!("must be a positive number, got {h}"),
         )),
@@ -250,7 +254,7 @@ pub(super) fn run_overrides(
 
 /// The first `k` components of the scene's material colours, then light
 /// intensities, then light positions: a pool for cost measurements.
-fn pool(desc: &SceneDescription, k: usize) -> Result<Vec<ParamId>, String> {
+fn pool(desc: &SceneDescription, k: usize) -> Result<Vec<ParamId>, Error> {
     let mut names: Vec<String> = desc
         .materials
         .iter()
@@ -258,30 +262,34 @@ fn pool(desc: &SceneDescription, k: usize) -> Result<Vec<ParamId>, String> {
         .collect();
     names.extend((0..desc.lights.len()).map(|i| format!("light[{i}].intensity")));
     names.extend((0..desc.lights.len()).map(|i| format!("light[{i}].position")));
-    let all = diff::resolve_all(&names, desc).map_err(|e| e.to_string())?;
+    let all = diff::resolve_all(&names, desc)?;
     if all.len() < k {
-        return Err(format!(
+        return Err(Error::Study(format!(
             "the scene has {} material colour, light intensity and position components, \
              fewer than cost_params = {k}",
             all.len()
-        ));
+        )));
     }
     Ok(all.into_iter().take(k).collect())
 }
 
 impl Study for Gradient {
     type Params = GradientParams;
-    type Config = Config;
+    type Config = GradientConfig;
     type Row = GradientRow;
 
-    fn configure(&self, p: GradientParams, base_dir: &Path) -> Result<Config, ParamError> {
+    fn configure(
+        &self,
+        p: GradientParams,
+        base_dir: &Path,
+    ) -> Result<GradientConfig, RunParamError> {
         let scene = scene_file(base_dir, &p.scene)?;
         let integrator = differentiable_integrator(p.integrator, p.roulette)?;
         let what = match (p.param, p.cost_params) {
             (Some(name), None) => What::One(name),
             (None, Some(k)) => What::Count(k.get() as usize),
             _ => {
-                return Err(ParamError::new(
+                return Err(RunParamError::new(
                     "param",
                     "give exactly one of `param` and `cost_params`",
                 ))
@@ -289,10 +297,10 @@ impl Study for Gradient {
         };
         let check = p.check.unwrap_or(false);
         if check && matches!(what, What::Count(_)) {
-            return Err(ParamError::new("check", "`check` needs `param`"));
+            return Err(RunParamError::new("check", "`check` needs `param`"));
         }
         let step = positive_step("step", p.step)?;
-        Ok(Config {
+        Ok(GradientConfig {
             scene,
             integrator,
             overrides: run_overrides(p.resolution, p.sampler, p.accel, p.seed),
@@ -305,27 +313,28 @@ impl Study for Gradient {
 
     fn run(
         &self,
-        cfg: Config,
+        cfg: GradientConfig,
         run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<GradientRow> {
-        let err = |e: String| anyhow::anyhow!("{}: {e}", cfg.scene.display());
+    ) -> Result<GradientRow, Error> {
+        let err = |e: DiffError| Error::scene(&cfg.scene, e);
         let (source, scene) = diff::load(&cfg.scene, &cfg.overrides)?;
         let desc = &source.description;
         let params = match &cfg.what {
             What::One(name) => {
-                let p = diff::resolve(name, desc).map_err(|e| err(e.to_string()))?;
-                anyhow::ensure!(
-                    p.len() == 1,
-                    "`param = \"{name}\"` names {} components: name one (e.g. `{}`)",
-                    p.len(),
-                    desc.param_name(p[0])
-                );
+                let p = diff::resolve(name, desc).map_err(|e| err(e.into()))?;
+                if p.len() != 1 {
+                    return Err(Error::Study(format!(
+                        "`param = \"{name}\"` names {} components: name one (e.g. `{}`)",
+                        p.len(),
+                        desc.param_name(p[0])
+                    )));
+                }
                 p
             }
-            What::Count(k) => pool(desc, *k).map_err(err)?,
+            What::Count(k) => pool(desc, *k).map_err(|e| Error::scene(&cfg.scene, e))?,
         };
-        diff::check_supported(&scene, &cfg.integrator).map_err(|e| err(e.to_string()))?;
+        diff::check_supported(&scene, &cfg.integrator).map_err(err)?;
         let set: &StudySettings = &ctx.settings;
         let primal = Timings::measure(set.warmup, set.repeats, || {
             cfg.integrator.render::<NoStats>(&scene, None)
@@ -341,9 +350,7 @@ impl Study for Gradient {
                 threads: None,
             }));
         });
-        let g = grads
-            .expect("at least one repeat")
-            .map_err(|e| err(e.to_string()))?;
+        let g = grads.expect("at least one repeat").map_err(err)?;
         let name = desc.param_name(params[0]);
         let (ad_mean, std_error) = g.image_mean(0);
         let mut row = GradientRow {
@@ -370,8 +377,7 @@ impl Study for Gradient {
                 integrator: cfg.integrator,
                 threads: None,
             };
-            let c = diff::check_param(&source, &scene, &g, 0, h, renderer)
-                .map_err(|e| err(e.to_string()))?;
+            let c = diff::check_param(&source, &scene, &g, 0, h, renderer).map_err(err)?;
             row.step = Sci(f64::from(c.h));
             row.fd_mean = Sci(c.fd_mean);
             row.rel_error = Sci(c.mean_rel_error);
@@ -382,7 +388,7 @@ impl Study for Gradient {
         }
         if cfg.images {
             let dir = ctx.out_dir.join("images");
-            std::fs::create_dir_all(&dir)?;
+            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, FileOp::CreateFolder, e))?;
             let stem = format!(
                 "{}-{}-{}-{}spp",
                 run.sweep,

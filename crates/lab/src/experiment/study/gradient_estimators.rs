@@ -26,13 +26,14 @@ use super::{RunContext, Study};
 use crate::analysis::plot::{Heatmap, Palette};
 use crate::experiment::params::render::scene_file;
 use crate::experiment::params::{
-    parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    parsed_opt, typed_params, InRange, ParamDoc, Resolution, RunParamError,
 };
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
+use crate::{Error, FileOp};
 use ndarray::Array2;
 use raylab::accel::AccelKind;
-use raylab::diff::{self, GradientRender, Renderer, Visibility};
+use raylab::diff::{self, DiffError, GradientRender, Renderer, Visibility};
 use raylab::integrator::IntegratorKind;
 use raylab::io::scene_file::Overrides;
 use raylab::math::Moments;
@@ -151,7 +152,7 @@ enum Estimator {
 }
 
 /// A run's parameters, checked.
-pub struct Config {
+pub struct EstimatorConfig {
     scene: PathBuf,
     integrator: IntegratorKind,
     overrides: Overrides,
@@ -228,10 +229,14 @@ fn references() -> &'static Mutex<HashMap<String, (f64, f64)>> {
 
 impl Study for GradientEstimators {
     type Params = EstimatorParams;
-    type Config = Config;
+    type Config = EstimatorConfig;
     type Row = EstimatorRow;
 
-    fn configure(&self, p: EstimatorParams, base_dir: &Path) -> Result<Config, ParamError> {
+    fn configure(
+        &self,
+        p: EstimatorParams,
+        base_dir: &Path,
+    ) -> Result<EstimatorConfig, RunParamError> {
         let scene = scene_file(base_dir, &p.scene)?;
         let integrator = differentiable_integrator(p.integrator, p.roulette)?;
         let estimator = match p.estimator.as_str() {
@@ -239,20 +244,20 @@ impl Study for GradientEstimators {
             "full" => Estimator::Ad(Visibility::Full),
             "fd" => Estimator::Fd,
             other => {
-                return Err(ParamError::new(
+                return Err(RunParamError::new(
                     "estimator",
                     format!("unknown estimator `{other}` (expected interior, full or fd)"),
                 ))
             }
         };
         if let Some(Sampler::Adaptive { .. }) = p.sampler {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "sampler",
                 "the estimators need a fixed sampler",
             ));
         }
         let step = positive_step("step", p.step)?;
-        Ok(Config {
+        Ok(EstimatorConfig {
             scene,
             integrator,
             overrides: run_overrides(p.resolution, p.sampler, p.accel, None),
@@ -269,24 +274,25 @@ impl Study for GradientEstimators {
 
     fn run(
         &self,
-        cfg: Config,
+        cfg: EstimatorConfig,
         run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<EstimatorRow> {
-        let err = |e: String| anyhow::anyhow!("{}: {e}", cfg.scene.display());
+    ) -> Result<EstimatorRow, Error> {
+        let err = |e: DiffError| Error::scene(&cfg.scene, e);
         let (source, scene) = diff::load(&cfg.scene, &cfg.overrides)?;
         let desc = &source.description;
-        let params = diff::resolve(&cfg.param, desc).map_err(|e| err(e.to_string()))?;
-        anyhow::ensure!(
-            params.len() == 1,
-            "`param = \"{}\"` names {} components: name one (e.g. `{}`)",
-            cfg.param,
-            params.len(),
-            desc.param_name(params[0])
-        );
+        let params = diff::resolve(&cfg.param, desc).map_err(|e| err(e.into()))?;
+        if params.len() != 1 {
+            return Err(Error::Study(format!(
+                "`param = \"{}\"` names {} components: name one (e.g. `{}`)",
+                cfg.param,
+                params.len(),
+                desc.param_name(params[0])
+            )));
+        }
         let p = params[0];
         let param_name = desc.param_name(p);
-        diff::check_supported(&scene, &cfg.integrator).map_err(|e| err(e.to_string()))?;
+        diff::check_supported(&scene, &cfg.integrator).map_err(err)?;
         let (w, h) = (scene.camera.width, scene.camera.height);
         let spp = scene.settings.sampler.spp();
         let fd_step = |s: Option<f32>| diff::step_for(&source, p, s);
@@ -302,7 +308,7 @@ impl Study for GradientEstimators {
             let settings = &mut moved.description.settings;
             settings.sampler = sampler.unwrap_or(settings.sampler);
             settings.seed = seed;
-            diff::difference_step(&moved, p, step, renderer).map_err(|e| err(e.to_string()))
+            diff::difference_step(&moved, p, step, renderer).map_err(err)
         };
 
         // The reference, once per scene, size, parameter and step.
@@ -357,7 +363,7 @@ impl Study for GradientEstimators {
                         visibility,
                         threads: None,
                     })
-                    .map_err(|e| err(e.to_string()))?;
+                    .map_err(err)?;
                     boundary_s += g.boundary.stats.seconds;
                     boundary_samples += g.boundary.stats.samples;
                     (g.image_mean(0).0, g.grey(0))
@@ -424,7 +430,7 @@ impl Study for GradientEstimators {
         };
         if cfg.images {
             let dir = ctx.out_dir.join("images");
-            std::fs::create_dir_all(&dir)?;
+            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, FileOp::CreateFolder, e))?;
             let stem = format!("{}-{}-{}-{}spp-sd", run.sweep, param_name, name, spp);
             let data = Array2::from_shape_fn((h as usize, w as usize), |(y, x)| {
                 let i = y * w as usize + x;

@@ -30,7 +30,7 @@ pub mod registry;
 pub mod render_cost;
 pub mod timing;
 
-pub use super::params::{ParamDoc, ParamError};
+pub use super::params::{ParamDoc, RunParamError};
 pub use registry::{find, kinds_help, StudyKind, KINDS};
 pub use timing::{median, process_cpu_seconds, Timings};
 
@@ -38,6 +38,7 @@ use super::data::Table;
 use super::params::Params;
 use super::row::{record, Record};
 use super::sweep::RunPoint;
+use crate::Error;
 use serde::Serialize;
 use std::path::Path;
 
@@ -81,7 +82,11 @@ pub trait Study: Sync {
     /// Check one run's parameters (values agree with each other, files
     /// exist) and resolve them, without running anything: every run is
     /// checked before the first one starts.
-    fn configure(&self, params: Self::Params, base_dir: &Path) -> Result<Self::Config, ParamError>;
+    fn configure(
+        &self,
+        params: Self::Params,
+        base_dir: &Path,
+    ) -> Result<Self::Config, RunParamError>;
 
     /// A row with the shape every row of the experiment has: the header of
     /// `data.csv` is its column names. The default row, unless the columns
@@ -97,7 +102,7 @@ pub trait Study: Sync {
         config: Self::Config,
         run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<Self::Row>;
+    ) -> Result<Self::Row, Error>;
 
     /// Figures the study draws itself after the sweep, beside the
     /// manifest's `[[figure]]`s, from `data.csv` (`table`, every row, so a
@@ -105,7 +110,7 @@ pub trait Study: Sync {
     /// name in `out_dir`: for data a row cannot hold, such as a curve per
     /// run. Returns the stems written (each as PNG and SVG). None by
     /// default.
-    fn figures(&self, _table: &Table, _out_dir: &Path) -> anyhow::Result<Vec<String>> {
+    fn figures(&self, _table: &Table, _out_dir: &Path) -> Result<Vec<String>, Error> {
         Ok(Vec::new())
     }
 
@@ -131,13 +136,13 @@ pub trait DynStudy: Sync {
     fn columns(&self, settings: &StudySettings) -> Vec<String>;
 
     /// Read and check one run's parameters without running it.
-    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), ParamError>;
+    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), RunParamError>;
 
     /// Perform one run; its record has exactly [`DynStudy::columns`].
-    fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Record>;
+    fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> Result<Record, Error>;
 
     /// See [`Study::figures`].
-    fn figures(&self, table: &Table, out_dir: &Path) -> anyhow::Result<Vec<String>>;
+    fn figures(&self, table: &Table, out_dir: &Path) -> Result<Vec<String>, Error>;
 
     /// See [`Study::device`].
     fn device(&self) -> Option<String>;
@@ -161,27 +166,28 @@ impl<S: Study> DynStudy for S {
         }
     }
 
-    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), ParamError> {
+    fn check(&self, run: &RunPoint, base_dir: &Path) -> Result<(), RunParamError> {
         let params = S::Params::from_run(run)?;
         self.configure(params, base_dir).map(|_| ())
     }
 
-    fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> anyhow::Result<Record> {
+    fn run(&self, run: &RunPoint, ctx: &RunContext<'_>) -> Result<Record, Error> {
         let params = S::Params::from_run(run)?;
         let config = self.configure(params, ctx.base_dir)?;
         let row = Study::run(self, config, run, ctx)?;
         let rec = record(&row)?;
         let columns = self.columns(&ctx.settings);
-        anyhow::ensure!(
-            rec.columns == columns,
-            "internal error: the study's row has columns {} where its header has {}",
-            rec.columns.join(","),
-            columns.join(",")
-        );
+        if rec.columns != columns {
+            return Err(Error::Internal(format!(
+                "internal error: the study's row has columns {} where its header has {}",
+                rec.columns.join(","),
+                columns.join(",")
+            )));
+        }
         Ok(rec)
     }
 
-    fn figures(&self, table: &Table, out_dir: &Path) -> anyhow::Result<Vec<String>> {
+    fn figures(&self, table: &Table, out_dir: &Path) -> Result<Vec<String>, Error> {
         Study::figures(self, table, out_dir)
     }
 

@@ -16,9 +16,10 @@
 
 use super::{RunContext, Study, StudySettings, Timings};
 use crate::experiment::params::render::{RenderConfig, RenderParams};
-use crate::experiment::params::ParamError;
+use crate::experiment::params::RunParamError;
 use crate::experiment::row::{CounterCells, Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
+use crate::Error;
 use raylab::integrator::{render, Whitted};
 use raylab::io::scene_file::load_scene;
 use raylab::stats::{Counters, NoStats};
@@ -75,7 +76,11 @@ impl Study for RenderCost {
     type Config = RenderConfig;
     type Row = RenderCostRow;
 
-    fn configure(&self, params: RenderParams, base_dir: &Path) -> Result<RenderConfig, ParamError> {
+    fn configure(
+        &self,
+        params: RenderParams,
+        base_dir: &Path,
+    ) -> Result<RenderConfig, RunParamError> {
         params.config(base_dir)
     }
 
@@ -91,7 +96,7 @@ impl Study for RenderCost {
         cfg: RenderConfig,
         _run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<RenderCostRow> {
+    ) -> Result<RenderCostRow, Error> {
         let start = Instant::now();
         let scene = load_scene(&cfg.scene, &cfg.overrides)?;
         let load_s = start.elapsed().as_secs_f64();

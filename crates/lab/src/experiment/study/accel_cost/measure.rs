@@ -5,7 +5,8 @@
 //! one bounding-volume test.
 
 use super::super::{StudySettings, Timings};
-use super::Config;
+use super::AccelCostConfig;
+use crate::Error;
 use raylab::accel::AccelKind;
 use raylab::integrator::{render, Whitted};
 use raylab::io::image::LinearImage;
@@ -36,7 +37,7 @@ fn reference_cache() -> &'static Mutex<HashMap<String, Arc<LinearImage>>> {
     CACHE.get_or_init(Default::default)
 }
 
-pub(super) fn cache_key(cfg: &Config, accel: AccelKind) -> String {
+pub(super) fn cache_key(cfg: &AccelCostConfig, accel: AccelKind) -> String {
     format!("{}|{}x{}|{accel}", cfg.label, cfg.width, cfg.height)
 }
 
@@ -54,9 +55,17 @@ pub(super) fn store(key: String, image: LinearImage) -> Arc<LinearImage> {
     image
 }
 
-/// How two images of the same size differ: (pixels with any channel not
-/// bit-for-bit equal, largest absolute channel difference).
-pub fn image_difference(a: &LinearImage, b: &LinearImage) -> (u64, f32) {
+/// How two images of the same size differ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImageDifference {
+    /// Pixels with any channel not bit-for-bit equal.
+    pub pixels: u64,
+    /// The largest absolute channel difference.
+    pub max: f32,
+}
+
+/// How two images of the same size differ.
+pub fn image_difference(a: &LinearImage, b: &LinearImage) -> ImageDifference {
     assert_eq!(a.dim(), b.dim(), "images of different sizes");
     let (h, w, channels) = a.dim();
     let mut differing = 0u64;
@@ -74,7 +83,10 @@ pub fn image_difference(a: &LinearImage, b: &LinearImage) -> (u64, f32) {
             differing += u64::from(differs);
         }
     }
-    (differing, max)
+    ImageDifference {
+        pixels: differing,
+        max,
+    }
 }
 
 /// What the timed part of a row measured.
@@ -94,10 +106,12 @@ pub(super) struct Measured {
 /// tests. Leaves `scene` with brute force at the sample size.
 pub(super) fn extrapolate_brute(
     scene: &mut Scene,
-    cfg: &Config,
+    cfg: &AccelCostConfig,
     settings: StudySettings,
-) -> anyhow::Result<Measured> {
-    scene.set_accel(cfg.reference).map_err(anyhow::Error::msg)?;
+) -> Result<Measured, Error> {
+    scene
+        .set_accel(cfg.reference)
+        .map_err(Error::accel(cfg.reference))?;
     let (_, full) = render::<_, Counters>(scene, &Whitted, None);
     let full_camera = scene.camera;
     let pixels = f64::from(full_camera.width) * f64::from(full_camera.height);
@@ -115,7 +129,7 @@ pub(super) fn extrapolate_brute(
     scene.camera.height = side;
     scene
         .set_accel(AccelKind::Brute)
-        .map_err(anyhow::Error::msg)?;
+        .map_err(Error::accel(AccelKind::Brute))?;
     let timings = Timings::measure(settings.warmup, settings.repeats, || {
         render::<_, NoStats>(scene, &Whitted, None)
     });
@@ -177,7 +191,19 @@ mod tests {
         b[[1, 2, 0]] = 0.25;
         b[[1, 2, 2]] = -0.5;
         b[[0, 0, 1]] = 0.125;
-        assert_eq!(image_difference(&a, &b), (2, 0.5));
-        assert_eq!(image_difference(&a, &a), (0, 0.0));
+        assert_eq!(
+            image_difference(&a, &b),
+            ImageDifference {
+                pixels: 2,
+                max: 0.5
+            }
+        );
+        assert_eq!(
+            image_difference(&a, &a),
+            ImageDifference {
+                pixels: 0,
+                max: 0.0
+            }
+        );
     }
 }

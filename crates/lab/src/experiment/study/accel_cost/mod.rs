@@ -38,16 +38,16 @@
 mod measure;
 mod scene;
 
-pub use measure::{image_difference, MIN_SAMPLE_SIDE};
-pub use scene::{mesh_scene, parse_procedural, MeshSource, ProceduralSpec};
+pub use measure::{image_difference, ImageDifference, MIN_SAMPLE_SIDE};
+pub use scene::{mesh_scene, parse_procedural, LabelledMesh, MeshSource, ProceduralSpec};
 
 use super::{RunContext, Study, StudySettings, Timings};
 use crate::experiment::params::{
-    or_default, parsed, parsed_opt, typed_params, InRange, ParamDoc, ParamError, Resolution,
+    or_default, parsed, parsed_opt, typed_params, InRange, ParamDoc, Resolution, RunParamError,
 };
 use crate::experiment::row::{CounterCells, Exp, Fixed, Secs};
 use crate::experiment::sweep::RunPoint;
-use anyhow::Context;
+use crate::Error;
 use measure::{cache_key, cached, extrapolate_brute, store, volume_test_ns, Measured};
 use raylab::accel::AccelKind;
 use raylab::integrator::{render, Whitted};
@@ -141,7 +141,7 @@ pub const DEFAULT_BRUTE_MAX_FACES: u64 = 20_000;
 pub const DEFAULT_BRUTE_SAMPLE_TESTS: f64 = 1.0e8;
 
 /// A run's parameters, checked.
-pub struct Config {
+pub struct AccelCostConfig {
     source: MeshSource,
     /// How the mesh was named in the manifest (cache key, messages).
     label: String,
@@ -275,30 +275,35 @@ pub struct AccelCostRow {
 
 impl Study for AccelCost {
     type Params = AccelCostParams;
-    type Config = Config;
+    type Config = AccelCostConfig;
     type Row = AccelCostRow;
 
-    fn configure(&self, p: AccelCostParams, base_dir: &Path) -> Result<Config, ParamError> {
-        let (source, label) = MeshSource::from_params(p.mesh, p.procedural, base_dir)?;
+    fn configure(
+        &self,
+        p: AccelCostParams,
+        base_dir: &Path,
+    ) -> Result<AccelCostConfig, RunParamError> {
+        let LabelledMesh { source, label } =
+            MeshSource::from_params(p.mesh, p.procedural, base_dir)?;
         let res = p.resolution.unwrap_or(Resolution {
             width: 200,
             height: 200,
         });
         let brute_sample_tests = p.brute_sample_tests.unwrap_or(DEFAULT_BRUTE_SAMPLE_TESTS);
         if brute_sample_tests < 1.0 {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "brute_sample_tests",
                 format!("must be a number of at least 1, got {brute_sample_tests}"),
             ));
         }
         let reference = or_default(p.reference, "reference", "bvh:aabb:sah")?;
         if reference == AccelKind::Brute {
-            return Err(ParamError::new(
+            return Err(RunParamError::new(
                 "reference",
                 "must not be `brute`: it is the stand-in where brute force is too slow",
             ));
         }
-        Ok(Config {
+        Ok(AccelCostConfig {
             source,
             label,
             accel: p.accel,
@@ -321,13 +326,16 @@ impl Study for AccelCost {
 
     fn run(
         &self,
-        cfg: Config,
+        cfg: AccelCostConfig,
         _run: &RunPoint,
         ctx: &RunContext<'_>,
-    ) -> anyhow::Result<AccelCostRow> {
+    ) -> Result<AccelCostRow, Error> {
         let start = Instant::now();
-        let mut scene = mesh_scene(&cfg.source, cfg.width, cfg.height)
-            .with_context(|| format!("mesh `{}`", cfg.label))?;
+        let mut scene =
+            mesh_scene(&cfg.source, cfg.width, cfg.height).map_err(|e| Error::Mesh {
+                label: cfg.label.clone(),
+                error: Box::new(e),
+            })?;
         let load_s = start.elapsed().as_secs_f64();
         let faces = scene.triangle_count() as u64;
         let brute_runs = faces <= cfg.brute_max_faces;
@@ -346,7 +354,7 @@ impl Study for AccelCost {
             Some(match cached(&key) {
                 Some(img) => img,
                 None => {
-                    scene.set_accel(ref_kind).map_err(anyhow::Error::msg)?;
+                    scene.set_accel(ref_kind).map_err(Error::accel(ref_kind))?;
                     let (film, _) = render::<_, NoStats>(&scene, &Whitted, None);
                     store(key, film.image())
                 }
@@ -354,7 +362,9 @@ impl Study for AccelCost {
         };
 
         let start = Instant::now();
-        scene.set_accel(cfg.accel).map_err(anyhow::Error::msg)?;
+        scene
+            .set_accel(cfg.accel)
+            .map_err(Error::accel(cfg.accel))?;
         let build_s = start.elapsed().as_secs_f64();
 
         let settings = ctx.settings;
@@ -434,9 +444,9 @@ impl Study for AccelCost {
             bv_test_cpu_ns: bv_ns.map(|t| Fixed(t.1)),
             bvh,
             compared_with,
-            differing_pixels: diff.map(|d| d.0),
-            max_difference: diff.map(|d| Exp(d.1)),
-            image_equal: diff.map(|d| d.0 == 0),
+            differing_pixels: diff.map(|d| d.pixels),
+            max_difference: diff.map(|d| Exp(d.max)),
+            image_equal: diff.map(|d| d.pixels == 0),
         })
     }
 }

@@ -2,10 +2,12 @@
 //! ([`MeshSource`], a file or a procedural spec such as
 //! "icosphere:LEVEL") and S3's kind of image of it ([`mesh_scene`]).
 
-use crate::experiment::params::FromParam;
+use crate::experiment::params::{existing_file, FromParam, RunParamError};
+use crate::Error;
 use raylab::camera::{Camera, CameraDesc};
 use raylab::io::procedural::{Procedural, MAX_TRIANGLES};
 use raylab::io::scene_file::{parse_scene, Overrides};
+use raylab::io::InputError;
 use raylab::math::Vec3;
 use raylab::scene::Scene;
 use std::path::PathBuf;
@@ -22,6 +24,16 @@ pub enum MeshSource {
     Procedural(Procedural),
 }
 
+/// A run's mesh and the label its rows carry (the mesh as the manifest
+/// names it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LabelledMesh {
+    /// Where the mesh comes from.
+    pub source: MeshSource,
+    /// The file or procedural spec as written.
+    pub label: String,
+}
+
 impl MeshSource {
     /// The mesh a run names by `mesh` (a file, relative to the manifest's
     /// folder `base_dir`) or by `procedural`, exactly one of them; with
@@ -30,21 +42,23 @@ impl MeshSource {
         mesh: Option<String>,
         procedural: Option<ProceduralSpec>,
         base_dir: &std::path::Path,
-    ) -> Result<(Self, String), crate::experiment::params::ParamError> {
-        use crate::experiment::params::{existing_file, ParamError};
+    ) -> Result<LabelledMesh, RunParamError> {
         match (mesh, procedural) {
-            (Some(_), Some(_)) => Err(ParamError::new(
+            (Some(_), Some(_)) => Err(RunParamError::new(
                 "procedural",
                 "give `mesh` or `procedural`, not both",
             )),
-            (None, None) => Err(ParamError::run(
+            (None, None) => Err(RunParamError::run(
                 "`mesh` or `procedural` is required (in [fixed] or in the sweep)",
             )),
-            (Some(m), None) => Ok((
-                MeshSource::File(existing_file(base_dir, "mesh", &m, "mesh")?),
-                m,
-            )),
-            (None, Some(spec)) => Ok((MeshSource::Procedural(spec.procedural), spec.text)),
+            (Some(m), None) => Ok(LabelledMesh {
+                source: MeshSource::File(existing_file(base_dir, "mesh", &m, "mesh")?),
+                label: m,
+            }),
+            (None, Some(spec)) => Ok(LabelledMesh {
+                source: MeshSource::Procedural(spec.procedural),
+                label: spec.text,
+            }),
         }
     }
 
@@ -80,17 +94,21 @@ impl MeshSource {
 }
 
 /// Parse "icosphere:LEVEL", "torus_knot:P:Q:SEGMENTS:SIDES" or
-/// "terrain:N:SEED".
-pub fn parse_procedural(spec: &str) -> Result<Procedural, String> {
+/// "terrain:N:SEED"; the error is the run's [`RunParamError`], blamed on the
+/// parameter by whoever reads it.
+pub fn parse_procedural(spec: &str) -> Result<Procedural, RunParamError> {
     let parts: Vec<&str> = spec.split(':').collect();
-    let num = |i: usize| -> Result<u64, String> {
-        parts[i]
-            .trim()
-            .parse()
-            .map_err(|_| format!("`{}` in `{spec}` is not a non-negative integer", parts[i]))
+    let num = |i: usize| -> Result<u64, RunParamError> {
+        parts[i].trim().parse().map_err(|_| {
+            RunParamError::run(format!(
+                "`{}` in `{spec}` is not a non-negative integer",
+                parts[i]
+            ))
+        })
     };
-    let small = |i: usize| -> Result<u32, String> {
-        u32::try_from(num(i)?).map_err(|_| format!("`{}` in `{spec}` is too large", parts[i]))
+    let small = |i: usize| -> Result<u32, RunParamError> {
+        u32::try_from(num(i)?)
+            .map_err(|_| RunParamError::run(format!("`{}` in `{spec}` is too large", parts[i])))
     };
     let p = match (parts[0], parts.len()) {
         ("icosphere", 2) => Procedural::Icosphere { level: small(1)? },
@@ -105,17 +123,17 @@ pub fn parse_procedural(spec: &str) -> Result<Procedural, String> {
             seed: num(2)?,
         },
         _ => {
-            return Err(format!(
+            return Err(RunParamError::run(format!(
                 "`{spec}` is not \"icosphere:LEVEL\", \"torus_knot:P:Q:SEGMENTS:SIDES\" \
                  or \"terrain:N:SEED\""
-            ))
+            )))
         }
     };
     let count = p.triangle_count();
     if count == 0 || count > MAX_TRIANGLES {
-        return Err(format!(
+        return Err(RunParamError::run(format!(
             "`{spec}` gives {count} triangles; expected 1 to {MAX_TRIANGLES}"
-        ));
+        )));
     }
     Ok(p)
 }
@@ -132,7 +150,7 @@ pub fn parse_procedural(spec: &str) -> Result<Procedural, String> {
 /// because refraction through the many test meshes that are not closed
 /// would make the ray tree depend on their holes. The accelerator is brute
 /// force (free to build); change it with [`Scene::set_accel`].
-pub fn mesh_scene(source: &MeshSource, width: u32, height: u32) -> anyhow::Result<Scene> {
+pub fn mesh_scene(source: &MeshSource, width: u32, height: u32) -> Result<Scene, Error> {
     let text = format!(
         "[image]\nwidth = {width}\nheight = {height}\n\n\
          [camera]\neye = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = {FOV_DEG}\n\n\
@@ -151,7 +169,7 @@ pub fn mesh_scene(source: &MeshSource, width: u32, height: u32) -> anyhow::Resul
     let mut scene = parse_scene(&text, &name, &Overrides::default())?;
     let b = scene.bounds();
     if b.min.x > b.max.x {
-        anyhow::bail!("{}: the mesh has no triangles", name.display());
+        return Err(InputError::file(&name, "the mesh has no triangles").into());
     }
     let centre = 0.5 * (b.min + b.max);
     let radius = (0.5 * (b.max - b.min).length()).max(1e-3);
@@ -166,7 +184,7 @@ pub fn mesh_scene(source: &MeshSource, width: u32, height: u32) -> anyhow::Resul
         aspect: None,
     };
     scene.camera = Camera::new(&desc, width, height)
-        .map_err(|e| anyhow::anyhow!("{}: automatic camera: {e}", name.display()))?;
+        .map_err(|error| Error::AutoCamera { scene: name, error })?;
     Ok(scene)
 }
 
@@ -181,7 +199,7 @@ pub struct ProceduralSpec {
 }
 
 impl FromParam for ProceduralSpec {
-    fn from_param(s: &str) -> Result<Self, String> {
+    fn from_param(s: &str) -> Result<Self, RunParamError> {
         Ok(ProceduralSpec {
             text: s.to_string(),
             procedural: parse_procedural(s)?,
@@ -212,6 +230,7 @@ mod tests {
         assert!(parse_procedural("icosphere:x").is_err());
         assert!(parse_procedural("icosphere:20")
             .unwrap_err()
+            .to_string()
             .contains("triangles; expected 1 to"));
         assert!(parse_procedural("cube:1").is_err());
     }
