@@ -6,6 +6,7 @@
 pub mod aabb;
 pub mod dual;
 pub mod isa;
+pub mod moments;
 pub mod real;
 pub mod rng;
 pub mod sampling;
@@ -15,6 +16,7 @@ pub use aabb::slab8_avx2;
 pub use aabb::{slab4, slab4_distances, slab8, slab8_with, Aabb, Planes8, SLAB_EXIT_SCALE};
 pub use dual::Dual;
 pub use isa::{Avx2, Baseline, Isa};
+pub use moments::Moments;
 pub use real::{RayR, Real, M3, V3};
 pub use rng::{SplitMix64, Words};
 pub use sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle};
