@@ -3,6 +3,10 @@
 //! [`raylab_lab::report`]: this file only turns arguments into that module's
 //! options, runs the report, and prints it.
 
+// No unsafe code here, and none to come: the workspace's unsafe lives in
+// `raylab`, each block with its SAFETY argument.
+#![forbid(unsafe_code)]
+
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use raylab::accel::AccelKind;

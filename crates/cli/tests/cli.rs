@@ -605,7 +605,9 @@ fn interrupted_render_leaves_no_file() {
         .spawn()
         .unwrap();
     std::thread::sleep(std::time::Duration::from_millis(500));
-    // SAFETY: signalling our own child.
+    // SAFETY: `kill` takes no pointer (it is `unsafe` only as a foreign
+    // call); the pid is our own child's, not yet waited for, so it cannot
+    // have been reaped and reused: the signal reaches the process we spawned.
     unsafe {
         libc::kill(child.id() as libc::pid_t, libc::SIGINT);
     }

@@ -199,7 +199,10 @@ fn an_interrupted_or_killed_run_keeps_well_formed_output() {
             assert!(start.elapsed().as_secs() < 120, "no rows after 2 minutes");
             std::thread::sleep(std::time::Duration::from_millis(20));
         }
-        // SAFETY: signalling our own child.
+        // SAFETY: `kill` takes no pointer (it is `unsafe` only as a foreign
+        // call); the pid is our own child's, not yet waited for, so it
+        // cannot have been reaped and reused: the signal reaches the process
+        // we spawned.
         unsafe {
             libc::kill(child.id() as libc::pid_t, signal);
         }

@@ -2,6 +2,10 @@
 //! binary names this crate `common`): paths into the repository, the real
 //! meshes as primitives and the rays traced through them, a tiny experiment.
 
+// No unsafe code here, and none to come: the workspace's unsafe lives in
+// `raylab`, each block with its SAFETY argument.
+#![forbid(unsafe_code)]
+
 pub mod experiment;
 #[cfg(feature = "gpu")]
 pub mod gpu;

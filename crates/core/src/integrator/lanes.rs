@@ -298,21 +298,24 @@ struct Group<'a, A> {
 /// The values of the group's samples.
 fn trace_group<S: Stats, A: Accel>(group: &Group<A>, stats: &mut S) -> [Color; LANES] {
     #[cfg(target_arch = "x86_64")]
-    if crate::accel::bvh::has_avx2() {
-        // SAFETY: the CPU has AVX2.
-        return unsafe { trace_group_avx2(group, stats) };
+    if let Some(avx2) = crate::math::Avx2::detect() {
+        // SAFETY: `trace_group_avx2` is compiled for AVX2, which `avx2`, a
+        // token only `Avx2::detect` makes, proves this CPU has.
+        return unsafe { trace_group_avx2(avx2, group, stats) };
     }
     trace_group_in(group, stats)
 }
 
 /// [`trace_group_in`] compiled with AVX2, so the lane loops use its
-/// 8-wide registers.
-///
-/// # Safety
-/// The CPU must support AVX2.
+/// 8-wide registers. Safe to call from code compiled for AVX2; from other
+/// code, only with the CPU's AVX2 proven (`_avx2`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn trace_group_avx2<S: Stats, A: Accel>(group: &Group<A>, stats: &mut S) -> [Color; LANES] {
+fn trace_group_avx2<S: Stats, A: Accel>(
+    _avx2: crate::math::Avx2,
+    group: &Group<A>,
+    stats: &mut S,
+) -> [Color; LANES] {
     trace_group_in(group, stats)
 }
 
@@ -372,7 +375,9 @@ fn vertex<S: Stats, A: Accel>(
     let mut u = [[0.0f32; LANES]; DIMS_PER_VERTEX];
     #[cfg(target_arch = "x86_64")]
     if lanes.avx512 {
-        // SAFETY: `avx512` is set only where the CPU has AVX-512 F and DQ.
+        // SAFETY: `vertex_numbers` needs AVX-512 F and DQ; `avx512` is set
+        // only by `render_with`, from `avx512::available()`, which detects
+        // both.
         u = unsafe { avx512::vertex_numbers(ctx, bounce) };
     }
     for i in 0..LANES {
@@ -592,37 +597,41 @@ mod avx512 {
         is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512dq")
     }
 
-    /// 8 words, one per lane. Made only inside [`vertex_numbers`], which
-    /// runs only where [`available`] said yes: that is what makes its
-    /// operations' `unsafe` blocks sound.
+    /// 8 words, one per lane. The invariant that makes its operations'
+    /// `unsafe` blocks sound: an `X8` is made and used only inside
+    /// [`vertex_numbers`] (the type is private to this module, and nothing
+    /// else here names it), whose contract is a CPU with AVX-512 F and DQ,
+    /// which every intrinsic below needs at most.
     #[derive(Clone, Copy)]
     struct X8(__m512i);
 
     impl Words for X8 {
         #[inline(always)]
         fn splat(x: u64) -> Self {
-            // SAFETY: see the type.
+            // SAFETY: AVX-512 F, present by the type's invariant.
             X8(unsafe { _mm512_set1_epi64(x as i64) })
         }
         #[inline(always)]
         fn wrapping_add(self, o: Self) -> Self {
-            // SAFETY: see the type.
+            // SAFETY: AVX-512 F, present by the type's invariant.
             X8(unsafe { _mm512_add_epi64(self.0, o.0) })
         }
         #[inline(always)]
         fn wrapping_mul(self, o: Self) -> Self {
-            // SAFETY: see the type (AVX-512 DQ).
+            // SAFETY: AVX-512 DQ, present by the type's invariant.
             X8(unsafe { _mm512_mullo_epi64(self.0, o.0) })
         }
         #[inline(always)]
         fn xor(self, o: Self) -> Self {
-            // SAFETY: see the type.
+            // SAFETY: AVX-512 F, present by the type's invariant.
             X8(unsafe { _mm512_xor_si512(self.0, o.0) })
         }
         #[inline(always)]
         fn shr<const N: u32>(self) -> Self {
-            // SAFETY: see the type.
-            X8(unsafe { _mm512_srl_epi64(self.0, _mm_cvtsi32_si128(N as i32)) })
+            // SAFETY: SSE2, part of x86-64.
+            let count = unsafe { _mm_cvtsi32_si128(N as i32) };
+            // SAFETY: AVX-512 F, present by the type's invariant.
+            X8(unsafe { _mm512_srl_epi64(self.0, count) })
         }
     }
 
@@ -642,6 +651,9 @@ mod avx512 {
                 let (seed, pixel, key) = vertex_key(&ctx[half * 8 + i], bounce);
                 (words[0][i], words[1][i], words[2][i]) = (seed, pixel, key);
             }
+            // SAFETY: `w` is 8 readable `u64`s (64 bytes), which `loadu`
+            // reads without an alignment requirement; AVX-512 F by this
+            // function's contract.
             let load = |w: &[u64; 8]| X8(unsafe { _mm512_loadu_si512(w.as_ptr().cast()) });
             let state = SplitMix64::keyed(load(&words[0]), load(&words[1]), load(&words[2]));
             for (d, row) in out.iter_mut().enumerate() {
@@ -651,7 +663,10 @@ mod avx512 {
                     _mm512_cvtepu64_ps(bits.0),
                     _mm256_set1_ps(SplitMix64::UNIT_SCALE),
                 );
-                _mm256_storeu_ps(row[half * 8..].as_mut_ptr(), unit);
+                // SAFETY: `row[half * 8..]` is 8 writable `f32`s (32 bytes: a
+                // row has LANES = 16, half ≤ 1), which `storeu` writes
+                // without an alignment requirement.
+                unsafe { _mm256_storeu_ps(row[half * 8..].as_mut_ptr(), unit) };
             }
         }
         out
@@ -681,7 +696,8 @@ mod avx512 {
                     }
                 });
                 let bounce = (round % 9) as u32;
-                // SAFETY: `available` said yes.
+                // SAFETY: `available()` detected AVX-512 F and DQ (the test
+                // returned otherwise), which is `vertex_numbers`' contract.
                 let lanes = unsafe { vertex_numbers(&ctx, bounce) };
                 for (i, c) in ctx.iter().enumerate() {
                     let one = super::super::vertex_numbers(c, bounce);

@@ -34,13 +34,17 @@ extern "C" fn on_signal(sig: libc::c_int) {
     for slot in &PENDING {
         let p = slot.load(SeqCst);
         if !p.is_null() {
-            // SAFETY: `p` came from CString::into_raw and is never freed.
+            // SAFETY: a non-null slot holds a pointer from
+            // `CString::into_raw` (in `pending`), which is never freed: a
+            // live NUL-terminated path. `unlink` is async-signal-safe.
             unsafe {
                 libc::unlink(p);
             }
         }
     }
-    // SAFETY: _exit is async-signal-safe and ends the process.
+    // SAFETY: `_exit` takes no pointer, is async-signal-safe, and ends the
+    // process without running anything else (no destructor, no atexit
+    // handler) that could meet the state the signal interrupted.
     unsafe { libc::_exit(128 + sig) }
 }
 
@@ -50,11 +54,12 @@ pub fn install() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-        // SAFETY: installing a handler that only calls async-signal-safe
-        // functions.
-        unsafe {
-            libc::signal(libc::SIGINT, handler);
-            libc::signal(libc::SIGTERM, handler);
+        for sig in [libc::SIGINT, libc::SIGTERM] {
+            // SAFETY: `handler` is an `extern "C" fn(c_int)`, the type
+            // `signal` expects, and it only reads atomics and calls
+            // async-signal-safe functions (`unlink`, `_exit`), as a handler
+            // must.
+            unsafe { libc::signal(sig, handler) };
         }
     });
 }
@@ -102,7 +107,8 @@ pub fn pending(path: &Path) -> Pending {
             return Pending(Some(i));
         }
     }
-    // SAFETY: `raw` was never shared: take it back.
+    // SAFETY: `raw` came from `CString::into_raw` above and no slot took
+    // it (every exchange failed), so nothing else holds it: reclaimed once.
     drop(unsafe { CString::from_raw(raw) });
     Pending(None)
 }

@@ -2,10 +2,12 @@
 //! volume, the voxel grid's extent. One type, and one slab test in several
 //! forms: [`Aabb::slab`] for one box, [`slab4`], its 4-lane SIMD form, for
 //! four boxes at once (the BVH's packed sibling pairs and 4-wide nodes),
-//! and [`slab8`] / [`slab8_avx2`] for the eight boxes of an 8-wide node.
+//! and [`slab8`] / [`slab8_avx2`] for the eight boxes of an 8-wide node
+//! ([`slab8_with`] picks one by the capability it is given, [`super::isa`]).
 //! All do the same operations in the same order, so they give
 //! bit-identical distances (tested below).
 
+use super::isa::{Avx2, Isa};
 use glam::{BVec4A, Vec3, Vec3A, Vec4};
 
 /// An axis-aligned box [min, max]. Empty when some min exceeds its max
@@ -183,14 +185,30 @@ pub fn slab8(
 
 /// [`slab8`] in AVX registers: the operations of [`slab4_distances`], in
 /// the same order and with the same operand order (so NaN and signed-zero
-/// cases resolve alike), on eight lanes.
-///
-/// # Safety
-/// The CPU must support AVX2 (`is_x86_feature_detected!("avx2")`).
+/// cases resolve alike), on eight lanes. `avx2` is the proof that the CPU
+/// runs them ([`Avx2::detect`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub fn slab8_avx2(
+    avx2: Avx2,
+    lo: &Planes8,
+    hi: &Planes8,
+    origin: Vec3,
+    inv_dir: Vec3,
+    t_max: f32,
+) -> ([f32; 8], u32) {
+    let _ = avx2;
+    // SAFETY: the function is compiled for AVX2, which `avx2`, a token only
+    // `Avx2::detect` makes, proves this CPU has.
+    unsafe { slab8_in_avx2(lo, hi, origin, inv_dir, t_max) }
+}
+
+/// The body of [`slab8_avx2`], compiled for AVX2 (so inlined into code
+/// compiled for it, such as the wide trees' AVX2 traversal).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-pub unsafe fn slab8_avx2(
+fn slab8_in_avx2(
     lo: &Planes8,
     hi: &Planes8,
     origin: Vec3,
@@ -198,13 +216,16 @@ pub unsafe fn slab8_avx2(
     t_max: f32,
 ) -> ([f32; 8], u32) {
     use std::arch::x86_64::*;
+    // SAFETY: `p` points to 8 readable `f32`s (32 bytes); `loadu` needs no
+    // alignment.
+    let load = |p: &[f32; 8]| unsafe { _mm256_loadu_ps(p.as_ptr()) };
     let mut enter = _mm256_set1_ps(f32::NEG_INFINITY);
     let mut exit = _mm256_set1_ps(f32::INFINITY);
     for a in 0..3 {
         let o = _mm256_set1_ps(origin[a]);
         let inv = _mm256_set1_ps(inv_dir[a]);
-        let t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(lo[a].as_ptr()), o), inv);
-        let t1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(hi[a].as_ptr()), o), inv);
+        let t0 = _mm256_mul_ps(_mm256_sub_ps(load(&lo[a]), o), inv);
+        let t1 = _mm256_mul_ps(_mm256_sub_ps(load(&hi[a]), o), inv);
         let free = _mm256_or_ps(
             _mm256_cmp_ps::<_CMP_UNORD_Q>(t0, t0),
             _mm256_cmp_ps::<_CMP_UNORD_Q>(t1, t1),
@@ -228,9 +249,33 @@ pub unsafe fn slab8_avx2(
         ),
         _mm256_cmp_ps::<_CMP_LE_OQ>(enter, _mm256_set1_ps(t_max)),
     );
+    let enter = _mm256_max_ps(enter, zero);
     let mut out = [0.0f32; 8];
-    _mm256_storeu_ps(out.as_mut_ptr(), _mm256_max_ps(enter, zero));
+    // SAFETY: `out` is 8 writable `f32`s (32 bytes); `storeu` needs no
+    // alignment.
+    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), enter) };
     (out, _mm256_movemask_ps(ok) as u32)
+}
+
+/// The 8-wide slab test in the form `isa` allows: [`slab8_avx2`] with an
+/// [`Avx2`] token, [`slab8`] with [`Baseline`](super::Baseline). The
+/// choice is made at compile time (the capability's type), and both give
+/// the same bits.
+#[inline(always)]
+pub fn slab8_with<I: Isa>(
+    isa: I,
+    lo: &Planes8,
+    hi: &Planes8,
+    origin: Vec3,
+    inv_dir: Vec3,
+    t_max: f32,
+) -> ([f32; 8], u32) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx2) = isa.avx2() {
+        return slab8_avx2(avx2, lo, hi, origin, inv_dir, t_max);
+    }
+    let _ = isa;
+    slab8(lo, hi, origin, inv_dir, t_max)
 }
 
 #[cfg(test)]
@@ -324,20 +369,16 @@ mod tests {
             )
         };
         let mut forms: Vec<Form<8>> = vec![&portable];
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = std::arch::is_x86_feature_detected!("avx2");
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx2 = false;
-        #[cfg(target_arch = "x86_64")]
+        let avx2 = Avx2::detect();
         let simd = |boxes: &[Aabb; 8], o: Vec3, inv: Vec3, t_max: f32| {
             let (lo, hi) = (planes(boxes, |b| b.min), planes(boxes, |b| b.max));
-            // SAFETY: only called where AVX2 was detected.
-            unsafe { slab8_avx2(&lo, &hi, o, inv, t_max) }
+            // Reached only with a token (the `if` below).
+            slab8_with(avx2.unwrap(), &lo, &hi, o, inv, t_max)
         };
-        #[cfg(target_arch = "x86_64")]
-        if avx2 {
+        if avx2.is_some() {
             forms.push(&simd);
         }
+        let avx2 = avx2.is_some();
         eprintln!("slab8: portable form checked; AVX2 form checked: {avx2}");
         let hits = check_against_scalar::<8>(8, &forms);
         assert!(hits > 10_000, "too few hits ({hits}) to test anything");

@@ -5,6 +5,7 @@
 
 pub mod aabb;
 pub mod dual;
+pub mod isa;
 pub mod moments;
 pub mod real;
 pub mod rng;
@@ -12,8 +13,9 @@ pub mod sampling;
 
 #[cfg(target_arch = "x86_64")]
 pub use aabb::slab8_avx2;
-pub use aabb::{slab4, slab4_distances, slab8, Aabb, Planes8, SLAB_EXIT_SCALE};
+pub use aabb::{slab4, slab4_distances, slab8, slab8_with, Aabb, Planes8, SLAB_EXIT_SCALE};
 pub use dual::Dual;
+pub use isa::{Avx2, Baseline, Isa};
 pub use moments::Moments;
 pub use real::{RayR, Real, M3, V3};
 pub use rng::{SplitMix64, Words};

@@ -55,11 +55,16 @@ fn check(size: usize) {
 }
 
 // SAFETY: every method forwards to `System` with the caller's layout and
-// pointer unchanged; the counters are only bookkeeping.
+// pointer unchanged, so the blocks handed out are `System`'s and meet
+// `GlobalAlloc`'s contract as its do; the counters are only bookkeeping
+// (atomics, no allocation). None unwinds: `check` aborts instead of
+// panicking.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         check(layout.size());
-        let p = System.alloc(layout);
+        // SAFETY: the caller's contract (a layout of non-zero size) is
+        // `System.alloc`'s, passed on unchanged.
+        let p = unsafe { System.alloc(layout) };
         if !p.is_null() {
             grow(layout.size());
         }
@@ -68,7 +73,8 @@ unsafe impl GlobalAlloc for Counting {
 
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
         check(layout.size());
-        let p = System.alloc_zeroed(layout);
+        // SAFETY: as in `alloc`.
+        let p = unsafe { System.alloc_zeroed(layout) };
         if !p.is_null() {
             grow(layout.size());
         }
@@ -76,13 +82,18 @@ unsafe impl GlobalAlloc for Counting {
     }
 
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        System.dealloc(ptr, layout);
+        // SAFETY: the caller's contract: `ptr` was allocated by this
+        // allocator, so by `System` (every method forwards to it), with
+        // `layout`.
+        unsafe { System.dealloc(ptr, layout) };
         shrink(layout.size());
     }
 
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
         check(new_size);
-        let p = System.realloc(ptr, layout, new_size);
+        // SAFETY: the caller's contract, as for `dealloc`, and a
+        // `new_size` that is non-zero and valid with `layout`'s alignment.
+        let p = unsafe { System.realloc(ptr, layout, new_size) };
         if !p.is_null() {
             // Count the new block before releasing the old one: a moving
             // realloc briefly holds both.

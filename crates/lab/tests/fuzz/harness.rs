@@ -6,10 +6,11 @@ use super::mutate::mutate;
 use super::seeds::{seeds, Seed};
 use super::targets::{allowance, bound, targets, triangles, Ctx, Target, Verdict, SCENE_TRIANGLES};
 use raylab::math::SplitMix64;
+use std::io::Write;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicU64, AtomicUsize, Ordering::SeqCst};
-use std::sync::{Mutex, OnceLock};
+use std::sync::{Mutex, OnceLock, PoisonError};
 use std::time::{Duration, Instant};
 
 /// No input may take longer than this.
@@ -121,6 +122,13 @@ impl std::fmt::Display for Summary {
 // What the allocator and the watchdog need to save the running input.
 static INPUT_PTR: AtomicPtr<u8> = AtomicPtr::new(std::ptr::null_mut());
 static INPUT_LEN: AtomicUsize = AtomicUsize::new(0);
+/// Held while [`run_one`] publishes or withdraws the input (`INPUT_PTR`,
+/// `INPUT_LEN`), and by [`save_current_and_abort`] from its reading of
+/// them until the abort: so the saver sees the pair of one input, and that
+/// input's buffer stays alive while it is saved (the watchdog may fire just
+/// as the input ends: its run cannot end until the lock is released, which
+/// the abort never does).
+static INPUT_LOCK: Mutex<()> = Mutex::new(());
 static INPUT_DESC: Mutex<String> = Mutex::new(String::new());
 static INPUT_EXT: Mutex<&str> = Mutex::new("bin");
 static STARTED_MS: AtomicU64 = AtomicU64::new(0);
@@ -135,14 +143,19 @@ fn epoch() -> Instant {
 /// Save the input being run and abort: for what cannot be caught (an
 /// allocation the machine should never be asked for, a hang).
 pub fn save_current_and_abort(why: &str) -> ! {
+    let _input = INPUT_LOCK.lock().unwrap_or_else(PoisonError::into_inner);
     let len = INPUT_LEN.load(SeqCst);
     let ptr = INPUT_PTR.load(SeqCst);
     let desc = INPUT_DESC.try_lock().map(|d| d.clone()).unwrap_or_default();
     let ext = INPUT_EXT.try_lock().map(|e| *e).unwrap_or("bin");
     let mut saved = String::from("(no input running)");
     if !ptr.is_null() {
-        // SAFETY: the harness publishes the input's buffer for the time the
-        // input runs, and the buffer outlives the run.
+        // SAFETY: a non-null `ptr` with `len` is the buffer of the input
+        // `run_one` is running, published and withdrawn under `INPUT_LOCK`,
+        // which this function holds: the pair is one input's, and its
+        // `bytes: &[u8]` stays borrowed (alive, unchanged) until `run_one`
+        // withdraws it, which waits for the lock this function never
+        // releases.
         let bytes = unsafe { std::slice::from_raw_parts(ptr, len) };
         if let Some(dir) = CRASH_DIR.get() {
             let path = dir.join(format!("abort.{ext}"));
@@ -153,7 +166,12 @@ pub fn save_current_and_abort(why: &str) -> ! {
             }
         }
     }
-    eprintln!("\nfuzz: {why}\n  input: {desc}\n  {saved}");
+    // Not `eprintln!`, which panics when stderr is closed: this runs inside
+    // the global allocator, which must not unwind.
+    let _ = writeln!(
+        std::io::stderr(),
+        "\nfuzz: {why}\n  input: {desc}\n  {saved}"
+    );
     std::process::abort()
 }
 
@@ -396,8 +414,11 @@ fn run_one(
         d.clear();
         d.push_str(desc);
     }
-    INPUT_LEN.store(bytes.len(), SeqCst);
-    INPUT_PTR.store(bytes.as_ptr() as *mut u8, SeqCst);
+    {
+        let _publishing = INPUT_LOCK.lock().unwrap_or_else(PoisonError::into_inner);
+        INPUT_LEN.store(bytes.len(), SeqCst);
+        INPUT_PTR.store(bytes.as_ptr() as *mut u8, SeqCst);
+    }
     STARTED_MS.store(epoch().elapsed().as_millis() as u64 + 1, SeqCst);
     let before = alloc::reset_peak();
     let t0 = Instant::now();
@@ -405,7 +426,10 @@ fn run_one(
     let elapsed = t0.elapsed();
     let used = alloc::peak().saturating_sub(before);
     STARTED_MS.store(0, SeqCst);
-    INPUT_PTR.store(std::ptr::null_mut(), SeqCst);
+    {
+        let _withdrawing = INPUT_LOCK.lock().unwrap_or_else(PoisonError::into_inner);
+        INPUT_PTR.store(std::ptr::null_mut(), SeqCst);
+    }
     let result = result.map_err(|_| {
         PANIC
             .lock()

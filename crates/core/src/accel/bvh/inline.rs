@@ -4,6 +4,7 @@
 use super::node::{ChildTest, WideNode};
 use super::wide::WideBvh;
 use crate::accel::Accel;
+use crate::math::Avx2;
 use crate::shape::{PreparedRay, PrimHit, Primitive};
 use crate::stats::Stats;
 
@@ -16,9 +17,13 @@ use crate::stats::Stats;
 /// path-traced render (`make bench-peers`' command at 64 spp and 1
 /// thread, best of 5 against the build without it, 2-core AMD EPYC,
 /// 2026-11-28). Called from code without AVX2 the intrinsics stay calls:
-/// slower, still right.
+/// slower, still right. It holds the tree's [`Avx2`] token, so it exists
+/// only on a CPU with AVX2.
 #[derive(Clone, Copy, Debug)]
-pub struct InlineAvx2<'a, const W: usize>(&'a WideBvh<W>);
+pub struct InlineAvx2<'a, const W: usize> {
+    tree: &'a WideBvh<W>,
+    avx2: Avx2,
+}
 
 impl<const W: usize> WideBvh<W>
 where
@@ -27,7 +32,7 @@ where
     /// The tree as an [`InlineAvx2`] accelerator, where the CPU has AVX2
     /// (and the tree uses it: 8-wide).
     pub fn inline_avx2(&self) -> Option<InlineAvx2<'_, W>> {
-        self.avx2.then_some(InlineAvx2(self))
+        self.avx2.map(|avx2| InlineAvx2 { tree: self, avx2 })
     }
 }
 
@@ -44,9 +49,8 @@ where
         stats: &mut S,
     ) -> Option<(u32, PrimHit)> {
         let mut best = None;
-        // `AVX2`: the value exists only where the CPU has it.
-        self.0
-            .traverse::<S, false, true>(ray, t_max, &mut best, stats);
+        self.tree
+            .traverse::<S, false, _>(self.avx2, ray, t_max, &mut best, stats);
         best
     }
 
@@ -58,8 +62,8 @@ where
         t_max: f32,
         stats: &mut S,
     ) -> bool {
-        self.0
-            .traverse::<S, true, true>(ray, t_max, &mut None, stats)
+        self.tree
+            .traverse::<S, true, _>(self.avx2, ray, t_max, &mut None, stats)
     }
 }
 

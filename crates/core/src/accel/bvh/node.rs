@@ -1,10 +1,11 @@
 //! One node of a wide box BVH and its child test: the children's boxes
 //! stored transposed (one `W`-lane row per plane), tested together by the
-//! slab test in SIMD lanes ([`slab4`], [`slab8`], and with AVX2
-//! [`crate::math::slab8_avx2`]). The collapse ([`super::collapse`]) makes
-//! these nodes and the traversal ([`super::wide`]) reads them.
+//! slab test in SIMD lanes ([`slab4`], [`crate::math::slab8`], and with an
+//! AVX2 token [`crate::math::slab8_avx2`]: [`slab8_with`]). The collapse
+//! (module `collapse`) makes these nodes and the traversal
+//! ([`super::wide`]) reads them.
 
-use crate::math::{slab4, slab8, Aabb, Planes8, Vec3};
+use crate::math::{slab4, slab8_with, Aabb, Isa, Planes8, Vec3};
 use crate::shape::PreparedRay;
 use glam::Vec4;
 
@@ -42,14 +43,16 @@ pub type Node8 = WideNode<8>;
 /// The node tests of each width.
 pub trait ChildTest<const W: usize> {
     /// Entry distances of the children (clamped to 0) and the mask of
-    /// those hit in [0, t_max]; with `AVX2` the caller vouches that the
-    /// CPU has AVX2.
-    fn hit<const AVX2: bool>(&self, ray: &PreparedRay, t_max: f32) -> ([f32; W], u32);
+    /// those hit in [0, t_max], with the instructions `isa` allows
+    /// ([`crate::math::isa`]).
+    fn hit<I: Isa>(&self, isa: I, ray: &PreparedRay, t_max: f32) -> ([f32; W], u32);
 }
 
 impl ChildTest<4> for Node4 {
+    /// One 4-lane test in SSE, which every x86-64 CPU has: the same code
+    /// whatever the capability.
     #[inline(always)]
-    fn hit<const AVX2: bool>(&self, ray: &PreparedRay, t_max: f32) -> ([f32; 4], u32) {
+    fn hit<I: Isa>(&self, _: I, ray: &PreparedRay, t_max: f32) -> ([f32; 4], u32) {
         let rows = |p: &[[f32; 4]; 3]| p.map(Vec4::from_array);
         let (t, mask) = slab4(
             &rows(&self.min),
@@ -64,14 +67,8 @@ impl ChildTest<4> for Node4 {
 
 impl ChildTest<8> for Node8 {
     #[inline(always)]
-    fn hit<const AVX2: bool>(&self, ray: &PreparedRay, t_max: f32) -> ([f32; 8], u32) {
+    fn hit<I: Isa>(&self, isa: I, ray: &PreparedRay, t_max: f32) -> ([f32; 8], u32) {
         let (lo, hi): (&Planes8, &Planes8) = (&self.min, &self.max);
-        #[cfg(target_arch = "x86_64")]
-        if AVX2 {
-            // SAFETY: `AVX2` is only set where AVX2 was detected
-            // (`WideBvh::avx2`).
-            return unsafe { crate::math::slab8_avx2(lo, hi, ray.ray.origin, ray.inv_dir, t_max) };
-        }
-        slab8(lo, hi, ray.ray.origin, ray.inv_dir, t_max)
+        slab8_with(isa, lo, hi, ray.ray.origin, ray.inv_dir, t_max)
     }
 }

@@ -27,8 +27,14 @@
 //!
 //! Counting: one triangle test per valid lane tested, one primitive hit per
 //! accepted improvement, as the scalar loop counts.
+//!
+//! Instructions: the tests take a capability ([`crate::math::isa`]); with
+//! an [`Avx2`](crate::math::Avx2) token the 8-lane masks are one AVX
+//! `movmskps`, and called from code compiled for AVX2 (the wide trees'
+//! AVX2 traversal) the lanes' arithmetic is 8-wide.
 
 use crate::accel::brute::{any_of, closest_of};
+use crate::math::Isa;
 use crate::shape::{PreparedRay, PrimHit, Triangle};
 use crate::stats::Stats;
 
@@ -94,7 +100,8 @@ struct Lanes<const L: usize> {
 /// over the lanes (4-wide SSE, or 8-wide AVX2 inside the AVX2 traversal);
 /// each lane's operations are the scalar test's, in its order.
 #[inline(always)]
-fn lanes<const L: usize, const AVX2: bool>(
+fn lanes<const L: usize, I: Isa>(
+    isa: I,
     pk: &TriPacket<L>,
     r: &PreparedRay,
     t_max: f32,
@@ -154,10 +161,10 @@ fn lanes<const L: usize, const AVX2: bool>(
         out.t_scaled[i] = t_scaled;
     }
     let valid = pk.valid();
-    if bits::<L, AVX2>(&odd) & valid != 0 {
+    if bits(isa, &odd) & valid != 0 {
         return None;
     }
-    out.hit = !bits::<L, AVX2>(&miss) & valid;
+    out.hit = !bits(isa, &miss) & valid;
     Some(out)
 }
 
@@ -168,27 +175,33 @@ fn lane_mask(b: bool) -> u32 {
 }
 
 /// Bit i set where lane i of `m` is all ones: one `movmskps` on x86-64 (the
-/// 8-lane one with `AVX2`, for which the caller vouches for the CPU),
-/// otherwise a loop. Packing the lanes' bits by shifts and ors costs a
-/// dozen instructions per mask, which a leaf test pays twice.
+/// 8-lane one with an AVX2 token in `isa`), otherwise a loop. Packing the
+/// lanes' bits by shifts and ors costs a dozen instructions per mask,
+/// which a leaf test pays twice.
 #[inline(always)]
-#[allow(unused_unsafe)] // the intrinsics are safe to call from Rust 1.87 on
-fn bits<const L: usize, const AVX2: bool>(m: &[u32; L]) -> u32 {
+fn bits<const L: usize, I: Isa>(isa: I, m: &[u32; L]) -> u32 {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{
             _mm256_loadu_ps, _mm256_movemask_ps, _mm_loadu_ps, _mm_movemask_ps,
         };
         if L == 4 {
-            // SAFETY: SSE is part of x86-64; `m` holds 4 lanes of 4 bytes.
-            return unsafe { _mm_movemask_ps(_mm_loadu_ps(m.as_ptr().cast())) } as u32;
+            // SAFETY: SSE is part of x86-64; `m` holds 4 lanes of 4 bytes,
+            // which `loadu` reads without an alignment requirement.
+            let v = unsafe { _mm_loadu_ps(m.as_ptr().cast()) };
+            // SAFETY: SSE is part of x86-64.
+            return unsafe { _mm_movemask_ps(v) } as u32;
         }
-        if L == 8 && AVX2 {
-            // SAFETY: the caller vouches for AVX2 (which implies AVX); `m`
-            // holds 8 lanes of 4 bytes.
-            return unsafe { _mm256_movemask_ps(_mm256_loadu_ps(m.as_ptr().cast())) } as u32;
+        if let (8, Some(_avx2)) = (L, isa.avx2()) {
+            // SAFETY: AVX, which AVX2 implies and `_avx2` proves (a token
+            // only `Avx2::detect` makes); `m` holds 8 lanes of 4 bytes,
+            // which `loadu` reads without an alignment requirement.
+            let v = unsafe { _mm256_loadu_ps(m.as_ptr().cast()) };
+            // SAFETY: AVX, as for the load.
+            return unsafe { _mm256_movemask_ps(v) } as u32;
         }
     }
+    let _ = isa;
     m.iter()
         .enumerate()
         .fold(0, |acc, (i, &x)| acc | ((x & 1) << i))
@@ -202,11 +215,13 @@ fn accept<const L: usize>(l: &Lanes<L>, i: usize, t_max: f32) -> Option<PrimHit>
 }
 
 /// Closest hit among the packets of one leaf, as [`closest_of`] over its
-/// triangles in slot order would find it. `tris` and `indices` are the
-/// tree's leaf-ordered triangles and scene indices; with `AVX2` the caller
-/// vouches that the CPU has AVX2.
+/// triangles in slot order would find it, with the instructions `isa`
+/// allows. `tris` and `indices` are the tree's leaf-ordered triangles and
+/// scene indices.
 #[inline(always)]
-pub fn closest_in_packets<S: Stats, const L: usize, const AVX2: bool>(
+#[allow(clippy::too_many_arguments)] // the scalar loop's seven, and `isa`
+pub fn closest_in_packets<S: Stats, const L: usize, I: Isa>(
+    isa: I,
     packets: &[TriPacket<L>],
     tris: &[Triangle],
     indices: &[u32],
@@ -217,7 +232,7 @@ pub fn closest_in_packets<S: Stats, const L: usize, const AVX2: bool>(
 ) {
     for pk in packets {
         let slot = pk.slot as usize;
-        let Some(l) = lanes::<L, AVX2>(pk, ray, *t_max) else {
+        let Some(l) = lanes(isa, pk, ray, *t_max) else {
             let range = slot..slot + pk.lanes as usize;
             let ids = indices[range.clone()].iter().copied();
             closest_of(ids.zip(&tris[range]), ray, t_max, best, stats);
@@ -238,10 +253,11 @@ pub fn closest_in_packets<S: Stats, const L: usize, const AVX2: bool>(
 }
 
 /// Whether any triangle of the packets is hit in (0, t_max), stopping at
-/// the first packet with a hit, as [`any_of`] decides it (`AVX2` as for
+/// the first packet with a hit, as [`any_of`] decides it (`isa` as for
 /// [`closest_in_packets`]).
 #[inline(always)]
-pub fn any_in_packets<S: Stats, const L: usize, const AVX2: bool>(
+pub fn any_in_packets<S: Stats, const L: usize, I: Isa>(
+    isa: I,
     packets: &[TriPacket<L>],
     tris: &[Triangle],
     ray: &PreparedRay,
@@ -250,7 +266,7 @@ pub fn any_in_packets<S: Stats, const L: usize, const AVX2: bool>(
 ) -> bool {
     for pk in packets {
         let slot = pk.slot as usize;
-        let Some(l) = lanes::<L, AVX2>(pk, ray, t_max) else {
+        let Some(l) = lanes(isa, pk, ray, t_max) else {
             if any_of(
                 tris[slot..slot + pk.lanes as usize].iter(),
                 ray,
@@ -276,7 +292,7 @@ pub fn any_in_packets<S: Stats, const L: usize, const AVX2: bool>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::{Ray, SplitMix64, Vec3};
+    use crate::math::{Avx2, Baseline, Ray, SplitMix64, Vec3};
     use crate::stats::Counters;
 
     fn v(rng: &mut SplitMix64, r: f32) -> Vec3 {
@@ -289,14 +305,15 @@ mod tests {
     /// partly filled packets.
     #[test]
     fn packets_match_the_scalar_loops_bit_for_bit() {
-        check::<4, false>();
-        check::<8, false>();
-        if super::super::has_avx2() {
-            check::<8, true>();
+        check::<4, _>(Baseline);
+        check::<8, _>(Baseline);
+        if let Some(avx2) = Avx2::detect() {
+            check::<4, _>(avx2);
+            check::<8, _>(avx2);
         }
     }
 
-    fn check<const L: usize, const AVX2: bool>() {
+    fn check<const L: usize, I: Isa>(isa: I) {
         let mut rng = SplitMix64(19);
         let (mut hits, mut exact) = (0, 0);
         for case in 0..4000 {
@@ -344,7 +361,8 @@ mod tests {
             let ids = indices.iter().copied();
             closest_of(ids.zip(&tris), &ray, &mut t_s, &mut best_s, &mut st_s);
             let (mut t_p, mut best_p, mut st_p) = (t_max, None, Counters::default());
-            closest_in_packets::<_, L, AVX2>(
+            closest_in_packets::<_, L, _>(
+                isa,
                 &packets,
                 &tris,
                 &indices,
@@ -363,12 +381,12 @@ mod tests {
             exact += usize::from(
                 packets
                     .iter()
-                    .any(|pk| lanes::<L, AVX2>(pk, &ray, t_max).is_none()),
+                    .any(|pk| lanes(isa, pk, &ray, t_max).is_none()),
             );
 
             let (mut a_s, mut a_p) = (Counters::default(), Counters::default());
             let any_s = any_of(tris.iter(), &ray, t_max, &mut a_s);
-            let any_p = any_in_packets::<_, L, AVX2>(&packets, &tris, &ray, t_max, &mut a_p);
+            let any_p = any_in_packets::<_, L, _>(isa, &packets, &tris, &ray, t_max, &mut a_p);
             assert_eq!(any_s, any_p, "{L} lanes, case {case}");
             assert_eq!(a_s, a_p, "{L} lanes, case {case}");
         }

@@ -177,7 +177,10 @@ impl<'a, T: Copy, const N: usize> Pending<'a, T, N> {
     pub(super) fn pop_live(&mut self, t_max: f32) -> Option<T> {
         while self.len > 0 {
             self.len -= 1;
-            // SAFETY: slots below `len` were written by `push`.
+            // SAFETY: the slots below `len` are initialised: `len` starts
+            // at 0 (`new`), `push` writes a slot before counting it, and
+            // only these two methods change `len` (a private field); `len`
+            // was above this slot before the decrement.
             let (next, t_enter) = unsafe { self.items[self.len].assume_init() };
             if t_enter <= t_max {
                 return Some(next);

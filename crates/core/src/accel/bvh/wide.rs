@@ -11,8 +11,11 @@
 //! is set by the number of levels rather than by arithmetic; cutting the
 //! levels is the main lever (see `analysis/embree-speed.toml`). The 8-wide
 //! node test is one AVX2 instruction per operation of the slab test
-//! ([`crate::math::slab8_avx2`]), chosen at build time when the CPU has AVX2; without
-//! it the same lanes go through two 4-wide tests ([`slab8`]).
+//! ([`crate::math::slab8_avx2`]), chosen at build time when the CPU has
+//! AVX2 (the tree keeps the [`Avx2`] token it detected, and the
+//! traversal is compiled a second time for AVX2 and entered with it);
+//! without it the same lanes go through two 4-wide tests
+//! ([`crate::math::slab8`]).
 //!
 //! Collapse (module `collapse`): which binary nodes become wide nodes is
 //! chosen to minimise the SAH cost of the wide tree. Leaves and their
@@ -42,7 +45,7 @@ use super::traverse::{test_leaf, Pending};
 use super::volume::BoundingVolume;
 use super::{area_weight, content_box, BuildOptions, Bvh, BvhStats, Waste, MAX_DEPTH};
 use crate::accel::Accel;
-use crate::math::Aabb;
+use crate::math::{Aabb, Avx2, Baseline, Isa};
 use crate::shape::{PreparedRay, PrimArrays, PrimHit, Primitive};
 use crate::stats::Stats;
 
@@ -59,8 +62,9 @@ pub struct WideBvh<const W: usize> {
     /// The leaves as packets of `W` triangles, when every primitive is a
     /// triangle (empty otherwise: leaves are then slot runs).
     packets: Vec<TriPacket<W>>,
-    /// Whether the node test may use AVX2 (detected at build time).
-    pub(super) avx2: bool,
+    /// The proof that the CPU has AVX2, detected at build time, for the
+    /// 8-wide tree (whose node test uses it); `None` otherwise.
+    pub(super) avx2: Option<Avx2>,
     /// The options of the collapse's model, and of the binary build
     /// unless the fine candidate won (their SAH constants weigh
     /// [`WideBvh::stats`]' cost).
@@ -77,16 +81,10 @@ pub type Bvh4 = WideBvh<4>;
 /// The 8-wide tree (`bvh8`).
 pub type Bvh8 = WideBvh<8>;
 
-/// Whether this CPU runs the AVX2 node test.
+/// Whether this CPU runs the AVX2 node test ([`Avx2::detect`] finds a
+/// token).
 pub fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    Avx2::detect().is_some()
 }
 
 impl<const W: usize> WideBvh<W>
@@ -157,7 +155,7 @@ where
             indices,
             leaf_prims,
             packets,
-            avx2: W == 8 && has_avx2(),
+            avx2: Avx2::detect().filter(|_| W == 8),
             options: *options,
             build_seconds: 0.0,
         };
@@ -200,7 +198,7 @@ where
 
     /// Whether the node test runs on AVX2.
     pub fn uses_avx2(&self) -> bool {
-        self.avx2
+        self.avx2.is_some()
     }
 
     /// Primitive indices (into the scene's list) in leaf order.
@@ -258,8 +256,9 @@ where
 
     /// Test one leaf; see [`test_leaf`] for the contract.
     #[inline(always)]
-    fn test_leaf<S: Stats, const ANY_HIT: bool, const AVX2: bool>(
+    fn test_leaf<S: Stats, const ANY_HIT: bool, I: Isa>(
         &self,
+        isa: I,
         leaf: Ref,
         ray: &PreparedRay,
         t_max: &mut f32,
@@ -274,9 +273,9 @@ where
             let first = leaf.first as usize;
             let packets = &self.packets[first..first + (leaf.count as usize).div_ceil(W)];
             if ANY_HIT {
-                return any_in_packets::<S, W, AVX2>(packets, tris, ray, *t_max, stats);
+                return any_in_packets(isa, packets, tris, ray, *t_max, stats);
             }
-            closest_in_packets::<S, W, AVX2>(packets, tris, &self.indices, ray, t_max, best, stats);
+            closest_in_packets(isa, packets, tris, &self.indices, ray, t_max, best, stats);
             return false;
         }
         let range = leaf.first as usize..(leaf.first + leaf.count) as usize;
@@ -292,11 +291,12 @@ where
     }
 
     /// The traversal, closest hit or (`ANY_HIT`) any hit; see the binary
-    /// tree's [`Bvh::traverse`] for the contract. `AVX2` picks the node
-    /// test; the caller vouches for the CPU.
+    /// tree's [`Bvh::traverse`] for the contract. `isa` picks the node
+    /// and packet tests' instructions.
     #[inline(always)]
-    pub(super) fn traverse<S: Stats, const ANY_HIT: bool, const AVX2: bool>(
+    pub(super) fn traverse<S: Stats, const ANY_HIT: bool, I: Isa>(
         &self,
+        isa: I,
         ray: &PreparedRay,
         mut t_max: f32,
         best: &mut Option<(u32, PrimHit)>,
@@ -315,7 +315,7 @@ where
         loop {
             stats.node_visit();
             if cur.count > 0 {
-                if self.test_leaf::<S, ANY_HIT, AVX2>(cur, ray, &mut t_max, best, stats) {
+                if self.test_leaf::<S, ANY_HIT, I>(isa, cur, ray, &mut t_max, best, stats) {
                     return true;
                 }
             } else {
@@ -325,7 +325,7 @@ where
                     stats.boxes_tested(children as u32);
                 }
                 // The cap keeps the empty lanes out (module doc).
-                let (t, mut mask) = n.hit::<AVX2>(ray, t_max.min(f32::MAX));
+                let (t, mut mask) = n.hit(isa, ray, t_max.min(f32::MAX));
                 if mask != 0 {
                     // The hit children, nearest first, ties in child
                     // order: sorted as keys of the entry distance's bits
@@ -380,11 +380,12 @@ where
         stats: &mut S,
     ) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: `avx2` is set only where the CPU has AVX2.
-            return unsafe { traverse_avx2::<W, S, ANY_HIT>(self, ray, t_max, best, stats) };
+        if let Some(avx2) = self.avx2 {
+            // SAFETY: `traverse_avx2` is compiled for AVX2, which `avx2`, a
+            // token only `Avx2::detect` makes, proves this CPU has.
+            return unsafe { traverse_avx2::<W, S, ANY_HIT>(avx2, self, ray, t_max, best, stats) };
         }
-        self.traverse::<S, ANY_HIT, false>(ray, t_max, best, stats)
+        self.traverse::<S, ANY_HIT, _>(Baseline, ray, t_max, best, stats)
     }
 }
 
@@ -442,13 +443,14 @@ where
     }
 }
 
-/// The traversal compiled for AVX2, so that the 8-wide node test inlines.
-///
-/// # Safety
-/// The CPU must support AVX2.
+/// The traversal compiled for AVX2, so that the 8-wide node test inlines
+/// and the packets' lanes fill AVX registers. Safe to call from code
+/// compiled for AVX2; from other code, only with the CPU's AVX2 proven
+/// (`avx2`, which it also hands to the node and packet tests).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn traverse_avx2<const W: usize, S: Stats, const ANY_HIT: bool>(
+fn traverse_avx2<const W: usize, S: Stats, const ANY_HIT: bool>(
+    avx2: Avx2,
     bvh: &WideBvh<W>,
     ray: &PreparedRay,
     t_max: f32,
@@ -458,7 +460,7 @@ unsafe fn traverse_avx2<const W: usize, S: Stats, const ANY_HIT: bool>(
 where
     WideNode<W>: ChildTest<W>,
 {
-    bvh.traverse::<S, ANY_HIT, true>(ray, t_max, best, stats)
+    bvh.traverse::<S, ANY_HIT, _>(avx2, ray, t_max, best, stats)
 }
 
 impl<const W: usize> Accel for WideBvh<W>

@@ -106,15 +106,27 @@ pub(crate) struct Device {
     errors: Box<ErrorLog>,
 }
 
-// SAFETY: an Embree device may be used from any thread (Embree's API is
-// thread-safe for everything we call on it after construction); the error
-// log is behind a mutex.
+// SAFETY: a `Device` owns its handle and its boxed log outright, and an
+// Embree device is not tied to the thread that made it (Embree's API keeps
+// an error flag per device *and user thread*: devices are used from many
+// threads by design), so it may be used and released on another thread.
 unsafe impl Send for Device {}
+// SAFETY: through a `&Device` the only calls are `rtcGetDeviceProperty` on
+// version properties (reads of constants), the error log's (a `Mutex`), and,
+// in `scene.rs`, the creation of scenes and geometries, which happens only in
+// `EmbreeAccel::build`, on one thread, before the device is shared. Embree
+// may call `record_error` from any thread: it only locks the mutex.
 unsafe impl Sync for Device {}
 
 /// The callback Embree calls on every error. Declared with a plain `u32`
 /// for the code rather than the generated `RTCError` enum, so a code newer
 /// than the bundled headers know can never be an invalid enum value.
+///
+/// # Safety
+/// `user` must point to a live [`ErrorLog`], and `message` be null or a
+/// NUL-terminated string: what Embree passes once [`Device::new`] has
+/// registered it (with the device's boxed log, which outlives the
+/// registration).
 unsafe extern "C" fn record_error(user: *mut c_void, code: u32, message: *const c_char) {
     // SAFETY: `user` is the `ErrorLog` registered in `Device::new`, alive
     // until the callback is unregistered in `Drop`.
@@ -177,7 +189,8 @@ impl Device {
     }
 
     fn property(&self, p: sys::RTCDeviceProperty) -> isize {
-        // SAFETY: valid device; version properties are always readable.
+        // SAFETY: `handle` is a live device (non-null, released only in
+        // `Drop`); version properties are always readable.
         unsafe { sys::rtcGetDeviceProperty(self.handle, p) }
     }
 
@@ -211,11 +224,12 @@ impl Device {
 
 impl Drop for Device {
     fn drop(&mut self) {
-        // SAFETY: valid device. Unregister first: scenes may keep the device
-        // alive past this point, and the log is freed with `self`.
-        unsafe {
-            sys::rtcSetDeviceErrorFunction(self.handle, None, std::ptr::null_mut());
-            sys::rtcReleaseDevice(self.handle);
-        }
+        // SAFETY: `handle` is a live device: this is its owner's release
+        // point. Unregister first: scenes may keep the device alive past
+        // this point, and the log the callback writes is freed with `self`.
+        unsafe { sys::rtcSetDeviceErrorFunction(self.handle, None, std::ptr::null_mut()) };
+        // SAFETY: the reference `rtcNewDevice` gave `new`, released once,
+        // here; `handle` is not used again.
+        unsafe { sys::rtcReleaseDevice(self.handle) };
     }
 }

@@ -105,25 +105,30 @@ struct Inner {
     counts: [usize; 3],
 }
 
-// SAFETY: a committed Embree scene may be queried from any number of threads
-// at once (rtcIntersect1/rtcOccluded1 are thread-safe); nothing mutates the
-// scenes after `build`, and they are released only when the last `Arc`
-// owner drops.
+// SAFETY: `Inner` owns its scene handles (released once, in `Drop`), its
+// device (`Send`, see `device.rs`) and plain data; Embree scenes, like
+// devices, are not tied to the thread that made them.
 unsafe impl Send for Inner {}
+// SAFETY: through a `&Inner` (the `Arc` the render threads share) the scenes
+// are only queried, with `rtcIntersect1`/`rtcOccluded1`, which Embree allows
+// from any number of threads at once on a committed scene. Every change and
+// commit happens in `EmbreeAccel::build`, before the `Arc` exists, and the
+// release in `Drop`, after its last owner: queries never overlap either, as
+// Embree requires. The device is `Sync` (see `device.rs`).
 unsafe impl Sync for Inner {}
 
 impl Drop for Inner {
     fn drop(&mut self) {
-        // SAFETY: handles created in `build` and released once, here. The
-        // device (released after, by its own Drop) is reference-counted by
-        // Embree, so the order is not critical, but scenes go first anyway.
-        unsafe {
-            if !self.scene.is_null() {
-                sys::rtcReleaseScene(self.scene);
-            }
-            if !self.unit_sphere.is_null() {
-                sys::rtcReleaseScene(self.unit_sphere);
-            }
+        // The scenes go before the device (released after, by its own
+        // `Drop`); Embree counts references, so the order is not critical.
+        if !self.scene.is_null() {
+            // SAFETY: a non-null `scene` is the handle `rtcNewScene` gave
+            // `build`, released once, here.
+            unsafe { sys::rtcReleaseScene(self.scene) };
+        }
+        if !self.unit_sphere.is_null() {
+            // SAFETY: as for `scene`.
+            unsafe { sys::rtcReleaseScene(self.unit_sphere) };
         }
     }
 }

@@ -23,14 +23,17 @@ struct GeometryHandle(sys::RTCGeometry);
 
 impl Drop for GeometryHandle {
     fn drop(&mut self) {
-        // SAFETY: created by rtcNewGeometry, released once.
+        // SAFETY: `self.0` is the non-null handle `rtcNewGeometry` returned
+        // (checked in `new`), and this is its owner's one release (a scene it
+        // is attached to holds its own reference).
         unsafe { sys::rtcReleaseGeometry(self.0) }
     }
 }
 
 impl GeometryHandle {
     fn new(device: &Device, kind: sys::RTCGeometryType) -> Result<Self, EmbreeError> {
-        // SAFETY: valid device.
+        // SAFETY: `device.handle` is a live device (released only when
+        // `device` drops); `kind` is a geometry type of the bindings.
         let g = unsafe { sys::rtcNewGeometry(device.handle, kind) };
         device.check("rtcNewGeometry")?;
         if g.is_null() {
@@ -56,8 +59,9 @@ impl GeometryHandle {
             )));
         }
         let count = bytes / stride;
-        // SAFETY: valid geometry. Embree allocates count·stride bytes (plus
-        // the padding it needs for vector loads) and returns them.
+        // SAFETY: `self.0` is a live geometry (see `Drop`). Embree allocates
+        // count·stride bytes (plus the padding it needs for vector loads)
+        // and returns them, or null (checked below).
         let ptr = unsafe { sys::rtcSetNewGeometryBuffer(self.0, kind, 0, format, stride, count) };
         device.check("rtcSetNewGeometryBuffer")?;
         if ptr.is_null() {
@@ -65,9 +69,10 @@ impl GeometryHandle {
                 "rtcSetNewGeometryBuffer returned no buffer",
             ));
         }
-        // SAFETY: the buffer holds count·stride = size_of_val(data) bytes,
-        // suitably aligned for f32/u32 (Embree aligns to 16), and does not
-        // overlap `data`.
+        // SAFETY: the buffer, non-null, holds count·stride =
+        // size_of_val(data) bytes, aligned to 16 (Embree's buffers), more
+        // than the f32 and u32 items passed here need; Embree made it
+        // fresh, so it does not overlap `data`.
         unsafe {
             std::ptr::copy_nonoverlapping(data.as_ptr(), ptr as *mut T, data.len());
         }
@@ -76,11 +81,13 @@ impl GeometryHandle {
 
     /// Commit, then attach to `scene`; returns the geometry id.
     fn commit_and_attach(&self, device: &Device, scene: sys::RTCScene) -> Result<u32, EmbreeError> {
-        // SAFETY: valid geometry and scene of the same device.
-        let id = unsafe {
-            sys::rtcCommitGeometry(self.0);
-            sys::rtcAttachGeometry(scene, self.0)
-        };
+        // SAFETY: `self.0` is a live geometry (see `Drop`), its buffers
+        // filled.
+        unsafe { sys::rtcCommitGeometry(self.0) };
+        // SAFETY: `self.0` is a live geometry and `scene` a live scene
+        // (owned by the `Inner` under construction), both of `device`: the
+        // pairing Embree requires.
+        let id = unsafe { sys::rtcAttachGeometry(scene, self.0) };
         device.check("attaching a geometry")?;
         Ok(id)
     }
@@ -88,7 +95,8 @@ impl GeometryHandle {
 
 /// A new scene with the configuration's quality and flags.
 fn new_scene(device: &Device, config: EmbreeConfig) -> Result<sys::RTCScene, EmbreeError> {
-    // SAFETY: valid device.
+    // SAFETY: `device.handle` is a live device (released only when
+    // `device` drops).
     let scene = unsafe { sys::rtcNewScene(device.handle) };
     device.check("rtcNewScene")?;
     if scene.is_null() {
@@ -99,13 +107,14 @@ fn new_scene(device: &Device, config: EmbreeConfig) -> Result<sys::RTCScene, Emb
     } else {
         sys::RTCSceneFlags::NONE
     };
-    // SAFETY: valid scene.
-    unsafe {
-        sys::rtcSetSceneBuildQuality(scene, config.quality.to_sys());
-        sys::rtcSetSceneFlags(scene, flags);
-    }
+    // SAFETY: `scene` is the live, non-null scene just made; the quality
+    // is a value of the bindings' enum.
+    unsafe { sys::rtcSetSceneBuildQuality(scene, config.quality.to_sys()) };
+    // SAFETY: as above, with flags the bindings define.
+    unsafe { sys::rtcSetSceneFlags(scene, flags) };
     if let Err(e) = device.check("setting the scene's quality and flags") {
-        // SAFETY: the scene is ours and not stored anywhere yet.
+        // SAFETY: the scene is ours and not stored anywhere yet, so this
+        // is its one release.
         unsafe { sys::rtcReleaseScene(scene) };
         return Err(e);
     }
@@ -116,7 +125,8 @@ fn new_scene(device: &Device, config: EmbreeConfig) -> Result<sys::RTCScene, Emb
 fn commit_scene(device: &Device, scene: sys::RTCScene) -> Result<(), EmbreeError> {
     {
         let _ftz = FtzDazScope::new();
-        // SAFETY: valid scene whose geometries are committed.
+        // SAFETY: `scene` is a live scene (owned by the `Inner` being
+        // built, on this thread only) whose geometries are committed.
         unsafe { sys::rtcCommitScene(scene) };
     }
     device.check("rtcCommitScene")
@@ -247,17 +257,20 @@ impl EmbreeAccel {
                     m.z_axis.x, m.z_axis.y, m.z_axis.z, e.centre.x, e.centre.y, e.centre.z,
                 ];
                 let g = GeometryHandle::new(dev, sys::RTCGeometryType::INSTANCE)?;
-                // SAFETY: valid instance geometry and committed scene; the
-                // transform is 12 floats in the declared format.
+                // SAFETY: `g.0` is a live instance geometry and
+                // `inner.unit_sphere` a live, committed scene of the same
+                // device.
+                unsafe { sys::rtcSetGeometryInstancedScene(g.0, inner.unit_sphere) };
+                // SAFETY: `g.0` as above; `xfm` is the 12 floats the declared
+                // format reads, alive for the call (Embree copies them).
                 unsafe {
-                    sys::rtcSetGeometryInstancedScene(g.0, inner.unit_sphere);
                     sys::rtcSetGeometryTransform(
                         g.0,
                         0,
                         sys::RTCFormat::FLOAT3X4_COLUMN_MAJOR,
                         xfm.as_ptr() as *const std::ffi::c_void,
-                    );
-                }
+                    )
+                };
                 dev.check("setting up an ellipsoid instance")?;
                 let geom_id = g.commit_and_attach(dev, inner.scene)?;
                 // Normals transform by the inverse transpose of the

@@ -148,6 +148,8 @@ pub(super) struct Binner {
 impl Binner {
     #[inline]
     pub(super) fn new(cb: &Box4, bins: usize) -> Self {
+        // What makes `indices`' conversion sound: positions ≤ bins − 1 < 2³².
+        assert!((2..=super::MAX_BINS).contains(&bins), "{bins} bins");
         let extent = cb.upper - cb.lower;
         let scale = Vec4::splat(bins as f32) / extent;
         let ok = extent.cmpgt(Vec4::ZERO) & scale.is_finite_mask();
@@ -176,10 +178,11 @@ impl Binner {
     #[inline(always)]
     pub(super) fn indices(&self, c: Vec4) -> [usize; 3] {
         let f = self.position(c);
-        // SAFETY: every lane of `f` is in [0, bins − 1] ⊂ [0, 63], which
-        // `to_int_unchecked` requires. (The checked `as` conversion tests
-        // every lane against the limits again; that took an eighth of the
-        // build.)
+        // SAFETY: `position` clamps every lane of `f` to [0, bins − 1]
+        // (NaN to 0), and `new` asserts bins ≤ MAX_BINS = 64: finite and
+        // in u32's range after truncation, which `to_int_unchecked`
+        // requires. (The checked `as` conversion tests every lane against
+        // the limits again; that took an eighth of the build.)
         let i = |x: f32| unsafe { x.to_int_unchecked::<u32>() } as usize;
         [i(f.x), i(f.y), i(f.z)]
     }
