@@ -85,6 +85,7 @@ impl SplitMix64 {
         Self::mix_words(state.wrapping_add(W::splat(Self::GAMMA.wrapping_mul(n))))
     }
 
+    #[inline]
     pub fn next_u64(&mut self) -> u64 {
         let out = Self::mix(self.0);
         self.0 = self.0.wrapping_add(Self::GAMMA);
@@ -93,6 +94,7 @@ impl SplitMix64 {
 
     /// Uniform in [0, 1), 24 random bits: the top 24 bits of an output
     /// ([`Self::UNIT_SHIFT`]) times 2⁻²⁴ ([`Self::UNIT_SCALE`]), exact.
+    #[inline]
     pub fn next_f32(&mut self) -> f32 {
         (self.next_u64() >> Self::UNIT_SHIFT) as f32 * Self::UNIT_SCALE
     }

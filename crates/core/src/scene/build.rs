@@ -25,7 +25,7 @@ use crate::camera::{CameraError, Frame};
 use crate::material::MaterialR;
 use crate::math::{Real, Vec3, M3, V3};
 use crate::shape::{MeshData, ShapeR};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// How the builder reads the description's numbers, over `R`.
 pub trait Numbers<R: Real> {
@@ -272,8 +272,10 @@ pub struct MeshR<R> {
     data: Arc<MeshData>,
     transform: MeshTransform<R>,
     normals: Normals,
-    /// For `normals = "computed"`: the faces around each vertex.
-    around: Option<Adjacency>,
+    /// For `normals = "computed"`: the faces around each vertex, built on
+    /// the first [`MeshR::normal`] (a whole mesh's normals, [`MeshR::normals`],
+    /// need none).
+    around: OnceLock<Adjacency>,
     /// Vertices read through the [`Numbers`] (by vertex), sorted.
     seeded: Vec<(u32, V3<R>)>,
 }
@@ -312,7 +314,7 @@ impl<R: Real> MeshR<R> {
             data: Arc::clone(&d.data),
             transform,
             normals: d.normals,
-            around: (d.normals == Normals::Computed).then(|| Adjacency::of(&d.data)),
+            around: OnceLock::new(),
             seeded,
         }
     }
@@ -350,8 +352,9 @@ impl<R: Real> MeshR<R> {
     /// the file's, placed; or, computed, the sum of the (placed) faces'
     /// area-weighted normals around it, normalised.
     pub fn normal(&self, k: u32) -> V3<R> {
-        match &self.around {
-            Some(around) => {
+        match self.normals {
+            Normals::Computed => {
+                let around = self.around.get_or_init(|| Adjacency::of(&self.data));
                 let mut sum = V3::zero();
                 for &f in around.faces_of(k) {
                     let tri = self.data.triangles[f as usize];
@@ -359,9 +362,32 @@ impl<R: Real> MeshR<R> {
                 }
                 sum.normalize_or_zero()
             }
-            None => self
+            Normals::File | Normals::Flat => self
                 .transform
                 .normal(V3::from_vec3(self.data.normals[k as usize])),
+        }
+    }
+
+    /// Every vertex's shading normal (only where [`MeshR::has_normals`]),
+    /// equal to [`MeshR::normal`] of each, bit for bit: a computed normal
+    /// sums the same faces in the same (face) order, but each face's
+    /// normal is computed once rather than once per corner, and no
+    /// adjacency is built.
+    pub fn normals(&self) -> Vec<V3<R>> {
+        let n = self.data.positions.len();
+        match self.normals {
+            Normals::Computed => {
+                let points: Vec<V3<R>> = (0..n as u32).map(|k| self.point(k)).collect();
+                let mut sums = vec![V3::zero(); n];
+                for tri in &self.data.triangles {
+                    let area_normal = face_area_normal(tri.map(|v| points[v as usize]));
+                    for &k in tri {
+                        sums[k as usize] += area_normal;
+                    }
+                }
+                sums.into_iter().map(V3::normalize_or_zero).collect()
+            }
+            Normals::File | Normals::Flat => (0..n as u32).map(|k| self.normal(k)).collect(),
         }
     }
 }

@@ -261,7 +261,7 @@ impl Scene {
                     let n = m.data().positions.len() as u32;
                     let positions: Vec<Vec3> = (0..n).map(|k| m.point(k).into()).collect();
                     let normals = if m.has_normals() {
-                        (0..n).map(|k| m.normal(k).into()).collect()
+                        m.normals().into_iter().map(Vec3::from).collect()
                     } else {
                         Vec::new()
                     };

@@ -39,6 +39,7 @@ pub struct PreparedRay {
 }
 
 impl PreparedRay {
+    #[inline]
     pub fn new(ray: Ray) -> Self {
         let d = ray.dir;
         let a = d.abs();
