@@ -160,44 +160,88 @@ pub enum CameraError {
     NotFinite(&'static str, Vec3),
 }
 
-impl Camera {
-    /// `fov_deg` is the vertical view angle θ in degrees; `aspect` is W/H
-    /// (usually width/height, for square pixels).
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        eye: Vec3,
-        look_at: Vec3,
-        up: Vec3,
-        fov_deg: f32,
-        aspect: f32,
-        near: f32,
-        width: u32,
-        height: u32,
-    ) -> Result<Self, CameraError> {
-        if width == 0 || height == 0 {
-            return Err(CameraError::Size(width, height));
-        }
-        for (name, v) in [("eye", eye), ("look_at", look_at), ("up", up)] {
+/// The camera as a scene file gives it: S2's eye, look-at point, up
+/// vector, vertical view angle and near-plane distance, and the aspect
+/// W/H of the image on the near plane.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraDesc {
+    pub eye: Vec3,
+    pub look_at: Vec3,
+    pub up: Vec3,
+    /// Vertical view angle θ in degrees.
+    pub fov: f32,
+    /// Near-plane distance N.
+    pub near: f32,
+    /// W/H; `None`: the image's width/height (square pixels).
+    pub aspect: Option<f32>,
+}
+
+impl CameraDesc {
+    /// The aspect W/H for an image of `width` × `height` pixels.
+    pub fn aspect_for(&self, width: u32, height: u32) -> f32 {
+        self.aspect.unwrap_or(width as f32 / height.max(1) as f32)
+    }
+
+    /// The numbers in range (the frame itself can still fail: eye at the
+    /// target, up along the view).
+    pub fn check(&self) -> Result<(), CameraError> {
+        for (name, v) in [
+            ("eye", self.eye),
+            ("look_at", self.look_at),
+            ("up", self.up),
+        ] {
             if !v.is_finite() {
                 return Err(CameraError::NotFinite(name, v));
             }
         }
-        if !(fov_deg > 0.0 && fov_deg < 180.0) {
-            return Err(CameraError::ViewAngle(fov_deg));
+        if !(self.fov > 0.0 && self.fov < 180.0) {
+            return Err(CameraError::ViewAngle(self.fov));
         }
-        if !(near > 0.0 && near.is_finite()) {
-            return Err(CameraError::Near(near));
+        if !(self.near > 0.0 && self.near.is_finite()) {
+            return Err(CameraError::Near(self.near));
         }
+        match self.aspect {
+            Some(a) if !(a > 0.0 && a.is_finite()) => Err(CameraError::Aspect(a)),
+            _ => Ok(()),
+        }
+    }
+}
+
+impl Camera {
+    /// The camera `desc` describes, for an image of `width` × `height`
+    /// pixels.
+    pub fn new(desc: &CameraDesc, width: u32, height: u32) -> Result<Self, CameraError> {
+        if width == 0 || height == 0 {
+            return Err(CameraError::Size(width, height));
+        }
+        desc.check()?;
+        let aspect = desc.aspect_for(width, height);
         if !(aspect > 0.0 && aspect.is_finite()) {
             return Err(CameraError::Aspect(aspect));
         }
-        let f = Frame::new(eye.into(), look_at.into(), up.into(), fov_deg, aspect, near)?;
+        let f = Frame::new(
+            desc.eye.into(),
+            desc.look_at.into(),
+            desc.up.into(),
+            desc.fov,
+            aspect,
+            desc.near,
+        )?;
+        Self::from_frame(&f, width, height)
+    }
+
+    /// The `f32` camera of frame `f` for an image of `width` × `height`
+    /// pixels.
+    pub fn from_frame(f: &Frame<f32>, width: u32, height: u32) -> Result<Self, CameraError> {
+        if width == 0 || height == 0 {
+            return Err(CameraError::Size(width, height));
+        }
         Ok(Self {
-            eye,
+            eye: f.eye.into(),
             u: f.u.into(),
             v: f.v.into(),
             n: f.n.into(),
-            near,
+            near: f.near,
             half_height: f.half_height,
             half_width: f.half_width,
             width,
@@ -232,17 +276,15 @@ mod tests {
 
     #[test]
     fn centre_ray_looks_at_target_and_corners_span_the_view_angle() {
-        let cam = Camera::new(
-            Vec3::new(0.0, 0.0, 5.0),
-            Vec3::ZERO,
-            Vec3::Y,
-            90.0,
-            2.0,
-            1.0,
-            200,
-            100,
-        )
-        .unwrap();
+        let desc = CameraDesc {
+            eye: Vec3::new(0.0, 0.0, 5.0),
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            fov: 90.0,
+            near: 1.0,
+            aspect: Some(2.0),
+        };
+        let cam = Camera::new(&desc, 200, 100).unwrap();
         let r = cam.generate_ray(100.0, 50.0);
         assert!((r.dir - -Vec3::Z).length() < 1e-6);
         // Top edge, centre column: 45° above the axis for θ = 90°.
@@ -256,17 +298,15 @@ mod tests {
 
     #[test]
     fn project_inverts_the_ray() {
-        let cam = Camera::new(
-            Vec3::new(1.0, 2.0, 5.0),
-            Vec3::new(0.3, 0.0, 0.0),
-            Vec3::Y,
-            50.0,
-            1.5,
-            1.0,
-            96,
-            64,
-        )
-        .unwrap();
+        let desc = CameraDesc {
+            eye: Vec3::new(1.0, 2.0, 5.0),
+            look_at: Vec3::new(0.3, 0.0, 0.0),
+            up: Vec3::Y,
+            fov: 50.0,
+            near: 1.0,
+            aspect: Some(1.5),
+        };
+        let cam = Camera::new(&desc, 96, 64).unwrap();
         let f = cam.frame();
         for (x, y) in [(0.0, 0.0), (47.3, 12.9), (95.5, 63.25)] {
             let ray = f.ray(x, y, 96, 64);
@@ -281,7 +321,17 @@ mod tests {
 
     #[test]
     fn rejects_degenerate_set_ups() {
-        let c = |eye, at, up, fov| Camera::new(eye, at, up, fov, 1.0, 1.0, 8, 8);
+        let c = |eye, look_at, up, fov| {
+            let desc = CameraDesc {
+                eye,
+                look_at,
+                up,
+                fov,
+                near: 1.0,
+                aspect: None,
+            };
+            Camera::new(&desc, 8, 8)
+        };
         assert_eq!(
             c(Vec3::ZERO, Vec3::ZERO, Vec3::Y, 60.0),
             Err(CameraError::EyeAtTarget)

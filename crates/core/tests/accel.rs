@@ -27,7 +27,6 @@ use raylab::math::{Ray, Vec3};
 use raylab::shape::{PreparedRay, Primitive};
 use raylab::stats::{Counters, NoStats};
 use rayon::prelude::*;
-use std::path::Path;
 use std::time::Instant;
 
 use raylab_testkit::meshes::{all_ids, mesh_prims, rays_for, reference, triangle, vertices};

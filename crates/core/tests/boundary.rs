@@ -18,26 +18,55 @@
 //! derivative is averaged over the step's interval instead, which the
 //! central difference equals exactly (`averaged_checks`).
 
-use raylab::diff::{self, Param, Visibility};
+use raylab::diff::{self, GradientRender, Gradients, Renderer, Visibility};
 use raylab::integrator::IntegratorKind;
-use raylab::io::scene_file::{parse_scene, Overrides, SceneFile};
+use raylab::io::scene_file::{Overrides, SceneSource};
 use raylab::math::SplitMix64;
 use raylab::sampler::Sampler;
+use raylab::scene::description::SceneDescription;
+use raylab::scene::param::ParamId;
 use raylab::scene::Scene;
 use std::path::Path;
 
-fn load(text: &str, sampler: &str) -> (Scene, SceneFile) {
+fn load(text: &str, sampler: &str) -> (Scene, SceneSource) {
     let overrides = Overrides {
         sampler: Some(Sampler::parse(sampler).unwrap()),
         ..Overrides::default()
     };
-    let scene = parse_scene(text, Path::new("test.toml"), &overrides).unwrap();
-    (scene, toml::from_str(text).unwrap())
+    let source = SceneSource::parse(text, Path::new("test.toml"), &overrides).unwrap();
+    (source.build().unwrap(), source)
 }
 
-fn params(names: &[&str], file: &SceneFile) -> Vec<Param> {
+fn params(names: &[&str], desc: &SceneDescription) -> Vec<ParamId> {
     let names: Vec<String> = names.iter().map(|s| s.to_string()).collect();
-    diff::resolve_all(&names, file).unwrap()
+    diff::resolve_all(&names, desc).unwrap()
+}
+
+/// The derivatives of `scene` (described by `desc`) for `p`.
+fn gradients(
+    scene: &Scene,
+    desc: &SceneDescription,
+    p: &[ParamId],
+    integrator: IntegratorKind,
+    visibility: Visibility,
+) -> Gradients {
+    diff::render_gradients(&GradientRender {
+        scene,
+        desc,
+        params: p,
+        integrator,
+        visibility,
+        threads: None,
+    })
+    .unwrap()
+}
+
+/// The renders of the finite differences.
+fn renderer(integrator: IntegratorKind) -> Renderer {
+    Renderer {
+        integrator,
+        threads: None,
+    }
 }
 
 /// A white sphere of radius 1 at distance 10 on the axis of a 24×24
@@ -151,17 +180,17 @@ fn coverage_derivatives(r_px: f64, w: usize) -> (Vec<f64>, Vec<f64>) {
 #[test]
 fn a_discs_coverage_derivative_matches_its_closed_form() {
     let (scene, file) = load(DISC, "jitter:6");
-    let p = params(&["sphere[0].radius", "sphere[0].center[0]"], &file);
-    let g = diff::render_gradients(
+    let p = params(
+        &["sphere[0].radius", "sphere[0].center[0]"],
+        &file.description,
+    );
+    let g = gradients(
         &scene,
-        &file,
-        Path::new("test.toml"),
+        &file.description,
         &p,
         IntegratorKind::Whitted,
         Visibility::Full,
-        None,
-    )
-    .unwrap();
+    );
     // The disc's image: tan α = r/√(D² − r²); pixels per unit of the near
     // plane's tangent: 12 / tan 10°.
     let (d, r) = (10.0f64, 1.0f64);
@@ -188,16 +217,16 @@ fn a_discs_coverage_derivative_matches_its_closed_form() {
         assert!(
             share >= 0.99,
             "{}: {share} of pixels within 4 SE",
-            p[k].name
+            file.description.param_name(p[k])
         );
         assert!(
             (sum_ad - sum_truth).abs() <= 4.0 * var.sqrt() + 1e-6,
             "{}: Σ AD {sum_ad}, closed form {sum_truth} ± {}",
-            p[k].name,
+            file.description.param_name(p[k]),
             var.sqrt()
         );
         // Without the boundary term these derivatives are 0.
-        assert!(g.boundary.mean[k].iter().any(|&v| v != 0.0));
+        assert!(g.boundary.planes.mean[k].iter().any(|&v| v != 0.0));
     }
     // The radius's total: the circumference times dR/dr.
     let total: f64 = g.grey(0).iter().map(|&v| f64::from(v)).sum();
@@ -244,22 +273,10 @@ intensity = 1.0
 /// The central difference of S1 in `param` with 32×32 jittered samples
 /// (64 times the derivative renders' 4×4) and a step of 0.01, which moves
 /// the edges by about 0.1 pixel.
-fn converged_difference(file: &SceneFile, param: &Param) -> diff::Difference {
-    let overrides = Overrides {
-        sampler: Some(Sampler::parse("jitter:32").unwrap()),
-        ..Overrides::default()
-    };
-    diff::central_difference(
-        Path::new("test.toml"),
-        S1,
-        file,
-        &overrides,
-        param,
-        0.01,
-        IntegratorKind::Whitted,
-        None,
-    )
-    .unwrap()
+fn converged_difference(file: &SceneSource, param: ParamId) -> diff::Difference {
+    let mut source = file.clone();
+    source.description.settings.sampler = Sampler::parse("jitter:32").unwrap();
+    diff::central_difference(&source, param, 0.01, renderer(IntegratorKind::Whitted)).unwrap()
 }
 
 /// For each geometric parameter kind (sphere centre and radius, light
@@ -277,22 +294,11 @@ fn full_derivatives_match_converged_differences_at_edges() {
         "plane[0].point[1]",
     ];
     let (scene, file) = load(S1, "jitter:4");
-    let p = params(&names, &file);
-    let run = |v| {
-        diff::render_gradients(
-            &scene,
-            &file,
-            Path::new("test.toml"),
-            &p,
-            IntegratorKind::Whitted,
-            v,
-            None,
-        )
-        .unwrap()
-    };
+    let p = params(&names, &file.description);
+    let run = |v| gradients(&scene, &file.description, &p, IntegratorKind::Whitted, v);
     let (full, interior) = (run(Visibility::Full), run(Visibility::Interior));
     for (i, param) in p.iter().enumerate() {
-        let fd = converged_difference(&file, param);
+        let fd = converged_difference(&file, *param);
         let edges = diff::edge_mask(&[&scene, &fd.scenes[0], &fd.scenes[1]], &fd);
         let cmp = |g: &diff::Gradients| {
             diff::compare(&g.grey(i), &g.grey_se(i), g.image_mean(i).0, &fd, &edges)
@@ -300,7 +306,7 @@ fn full_derivatives_match_converged_differences_at_edges() {
         let (f, n) = (cmp(&full), cmp(&interior));
         eprintln!(
             "{}: full {:.4} / {:.4} (mean {:.4e} vs FD {:.4e}), interior {:.4} / {:.4} (mean {:.4e})",
-            param.name,
+            file.description.param_name(*param),
             f.within_4se,
             f.within_4se_edges,
             f.ad_mean,
@@ -312,13 +318,13 @@ fn full_derivatives_match_converged_differences_at_edges() {
         assert!(
             f.within_4se >= 0.99,
             "{}: full {}",
-            param.name,
+            file.description.param_name(*param),
             f.within_4se
         );
         // Interior on the pixels where the boundary term acts.
         let active: Vec<usize> = (0..edges.len())
             .filter(|&j| {
-                full.boundary.mean[i][3 * j..3 * j + 3]
+                full.boundary.planes.mean[i][3 * j..3 * j + 3]
                     .iter()
                     .any(|&v| v != 0.0)
             })
@@ -337,13 +343,13 @@ fn full_derivatives_match_converged_differences_at_edges() {
         assert!(
             !active.is_empty() && share < 0.8,
             "{}: interior {share}",
-            param.name
+            file.description.param_name(*param)
         );
         let (m, se) = full.image_mean(i);
         assert!(
             (m - fd.image_mean).abs() <= 4.0 * se + 1e-3 * fd.image_mean.abs(),
             "{}: image mean {m} ± {se} vs FD {}",
-            param.name,
+            file.description.param_name(*param),
             fd.image_mean
         );
         // 6 SE: the sphere's centre is about 10 SE off at 16 samples per
@@ -353,7 +359,7 @@ fn full_derivatives_match_converged_differences_at_edges() {
         assert!(
             (m - fd.image_mean).abs() > 6.0 * se,
             "{}: interior is not biased?",
-            param.name
+            file.description.param_name(*param)
         );
     }
 }
@@ -363,23 +369,23 @@ fn full_derivatives_match_converged_differences_at_edges() {
 #[test]
 fn the_full_image_mean_derivative_is_unbiased_over_seeds() {
     let (_, file) = load(S1, "jitter:2");
-    let p = params(&["sphere[0].radius", "light[0].position[0]"], &file);
+    let p = params(
+        &["sphere[0].radius", "light[0].position[0]"],
+        &file.description,
+    );
     for param in &p {
-        let fd = converged_difference(&file, param);
+        let fd = converged_difference(&file, *param);
         let means: Vec<f64> = (0..12u64)
             .map(|seed| {
                 let (mut scene, _) = load(S1, "jitter:2");
                 scene.settings.seed = 1000 + seed;
-                let g = diff::render_gradients(
+                let g = gradients(
                     &scene,
-                    &file,
-                    Path::new("test.toml"),
+                    &file.description,
                     std::slice::from_ref(param),
                     IntegratorKind::Whitted,
                     Visibility::Full,
-                    None,
-                )
-                .unwrap();
+                );
                 g.image_mean(0).0
             })
             .collect();
@@ -389,11 +395,15 @@ fn the_full_image_mean_derivative_is_unbiased_over_seeds() {
         let z = (mean - fd.image_mean) / (sd / n.sqrt());
         eprintln!(
             "{}: mean {mean:.5e} ± {:.1e} vs FD {:.5e}: z = {z:.2}",
-            param.name,
+            file.description.param_name(*param),
             sd / n.sqrt(),
             fd.image_mean
         );
-        assert!(z.abs() < 4.0, "{}: z = {z}", param.name);
+        assert!(
+            z.abs() < 4.0,
+            "{}: z = {z}",
+            file.description.param_name(*param)
+        );
     }
 }
 
@@ -402,23 +412,25 @@ fn the_full_image_mean_derivative_is_unbiased_over_seeds() {
 #[test]
 fn the_boundary_term_does_not_depend_on_the_thread_count() {
     let (scene, file) = load(S1, "jitter:2");
-    let p = params(&["sphere[0].center", "light[0].position[1]"], &file);
+    let p = params(
+        &["sphere[0].center", "light[0].position[1]"],
+        &file.description,
+    );
     let run = |t| {
-        diff::render_gradients(
-            &scene,
-            &file,
-            Path::new("test.toml"),
-            &p,
-            IntegratorKind::Whitted,
-            Visibility::Full,
-            Some(t),
-        )
+        diff::render_gradients(&GradientRender {
+            scene: &scene,
+            desc: &file.description,
+            params: &p,
+            integrator: IntegratorKind::Whitted,
+            visibility: Visibility::Full,
+            threads: Some(t),
+        })
         .unwrap()
     };
     let (a, b) = (run(1), run(2));
     for k in 0..p.len() {
-        assert_eq!(a.mean[k], b.mean[k]);
-        assert_eq!(a.variance[k], b.variance[k]);
+        assert_eq!(a.planes.mean[k], b.planes.mean[k]);
+        assert_eq!(a.planes.variance[k], b.planes.variance[k]);
     }
     assert!(a.boundary.stats.shadow_curves >= 1);
 }
@@ -493,16 +505,16 @@ fn pixel_means(estimates: &[Vec<f64>]) -> (Vec<(f64, f64)>, (f64, f64)) {
 fn reference(
     path: &Path,
     text: &str,
-    param: &Param,
+    param: ParamId,
     h: f32,
     integrator: IntegratorKind,
     size: u32,
 ) -> (Vec<(f64, f64)>, (f64, f64)) {
-    let file: SceneFile = toml::from_str(text).unwrap();
     let steps: Vec<Vec<f64>> = (0..REFERENCE_SEEDS)
         .map(|k| {
             let o = small(size, "jitter:32", 100 + k);
-            let step = diff::difference_step(path, text, &file, &o, param, h, integrator, None);
+            let source = SceneSource::parse(text, path, &o).unwrap();
+            let step = diff::difference_step(&source, param, h, renderer(integrator));
             grey(&step.unwrap().per_pixel)
         })
         .collect();
@@ -550,15 +562,15 @@ fn judge(
 /// too noisy to tell it apart everywhere.
 fn cornell_checks(integrator: &str, names: &[&str], text: &str) {
     let cornell = cornell_path();
-    let scene = parse_scene(text, &cornell, &small(16, "random:128", 3)).unwrap();
-    let file: SceneFile = toml::from_str(text).unwrap();
-    let p = params(names, &file);
+    let file = SceneSource::parse(text, &cornell, &small(16, "random:128", 3)).unwrap();
+    let scene = file.build().unwrap();
+    let p = params(names, &file.description);
     let integrator = IntegratorKind::parse(integrator).unwrap();
-    let run = |v| diff::render_gradients(&scene, &file, &cornell, &p, integrator, v, None).unwrap();
+    let run = |v| gradients(&scene, &file.description, &p, integrator, v);
     let (full, interior) = (run(Visibility::Full), run(Visibility::Interior));
     assert!(full.boundary.stats.landed > 0);
     for (i, param) in p.iter().enumerate() {
-        let reference = reference(&cornell, text, param, 0.004, integrator, 16);
+        let reference = reference(&cornell, text, *param, 0.004, integrator, 16);
         let ad = |g: &diff::Gradients| {
             let (mean, se) = (g.grey(i), g.grey_se(i));
             let pixels = mean.iter().zip(&se);
@@ -572,16 +584,28 @@ fn cornell_checks(integrator: &str, names: &[&str], text: &str) {
         eprintln!(
             "{}: pixels within 4 SE: full {sf:.4}, interior {si:.4}; image mean {:.4e} \
              (interior {:.4e}), reference {:.4e} ± {:.1e}: z = {zf:.2} (interior {zi:.1})",
-            param.name,
+            file.description.param_name(*param),
             full.image_mean(i).0,
             interior.image_mean(i).0,
             reference.1 .0,
             reference.1 .1,
         );
-        assert!(sf >= 0.99, "{}: full, share {sf}", param.name);
-        assert!(zf.abs() < 4.0, "{}: full, z = {zf}", param.name);
+        assert!(
+            sf >= 0.99,
+            "{}: full, share {sf}",
+            file.description.param_name(*param)
+        );
+        assert!(
+            zf.abs() < 4.0,
+            "{}: full, z = {zf}",
+            file.description.param_name(*param)
+        );
         if i == 0 {
-            assert!(si < 0.95, "{}: interior, share {si}", param.name);
+            assert!(
+                si < 0.95,
+                "{}: interior, share {si}",
+                file.description.param_name(*param)
+            );
         }
     }
 }
@@ -619,28 +643,27 @@ fn averaged_checks_at(
     share: f64,
 ) {
     const RENDERS: u32 = 64;
-    let file: SceneFile = toml::from_str(text).unwrap();
+    let base = SceneSource::parse(text, path, &small(size, "random:4", 0)).unwrap();
     let integrator = IntegratorKind::parse(integrator).unwrap();
     for &(name, h) in names {
-        let param = params(&[name], &file).remove(0);
+        let param = params(&[name], &base.description).remove(0);
         let mut rng = SplitMix64(u64::from(h.to_bits()));
         let (mut full, mut interior) = (Vec::new(), Vec::new());
         for k in 0..RENDERS {
             let u = (k as f32 + rng.next_f32()) / RENDERS as f32;
-            let value = param.value - h + 2.0 * h * u;
-            let text = diff::check::scene_text_with(text, &file, &param, value).unwrap();
-            let file: SceneFile = toml::from_str(&text).unwrap();
-            let o = small(size, "random:4", 500 + u64::from(k));
-            let scene = parse_scene(&text, path, &o).unwrap();
-            let p = params(&[name], &file);
+            let mut desc = base.description.clone();
+            let value = desc.value(param) - h + 2.0 * h * u;
+            desc.set_value(param, value);
+            desc.settings.seed = 500 + u64::from(k);
+            let scene = base.build_from(&desc).unwrap();
             let run = |v| {
-                let g = diff::render_gradients(&scene, &file, path, &p, integrator, v, None);
-                g.unwrap().grey(0).into_iter().map(f64::from).collect()
+                let g = gradients(&scene, &desc, &[param], integrator, v);
+                g.grey(0).into_iter().map(f64::from).collect()
             };
             full.push(run(Visibility::Full));
             interior.push(run(Visibility::Interior));
         }
-        let reference = reference(path, text, &param, h, integrator, size);
+        let reference = reference(path, text, param, h, integrator, size);
         let (sf, zf) = judge(&pixel_means(&full), &reference);
         let (si, zi) = judge(&pixel_means(&interior), &reference);
         eprintln!(

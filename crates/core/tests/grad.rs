@@ -10,37 +10,52 @@
 //! truncation h²·|I‴|/6 of the same order: AD and FD agree to 1e-3
 //! relative on image means (the target) where no boundary moves.
 
-use raylab::diff::{self, Gradients, Param};
+use raylab::diff::{self, GradientRender, Gradients, Renderer};
 use raylab::integrator::path::LightStrategy;
 use raylab::integrator::{IntegratorKind, PathTracer};
-use raylab::io::scene_file::{parse_scene, Overrides, SceneFile};
+use raylab::io::scene_file::{Overrides, SceneSource};
+use raylab::scene::description::SceneDescription;
+use raylab::scene::param::ParamId;
 use raylab::scene::Scene;
 use std::path::Path;
 
-fn load(text: &str) -> (Scene, SceneFile) {
-    let scene = parse_scene(text, Path::new("test.toml"), &Overrides::default()).unwrap();
-    (scene, toml::from_str(text).unwrap())
+fn load(text: &str) -> (Scene, SceneSource) {
+    let source = SceneSource::parse(text, Path::new("test.toml"), &Overrides::default()).unwrap();
+    (source.build().unwrap(), source)
 }
 
-fn params(names: &[&str], file: &SceneFile) -> Vec<Param> {
+fn params(names: &[&str], desc: &SceneDescription) -> Vec<ParamId> {
     let names: Vec<String> = names.iter().map(|s| s.to_string()).collect();
-    diff::resolve_all(&names, file).unwrap()
+    diff::resolve_all(&names, desc).unwrap()
 }
 
-fn grads(text: &str, names: &[&str], integrator: IntegratorKind) -> (Gradients, Scene, SceneFile) {
-    let (scene, file) = load(text);
-    let p = params(names, &file);
-    let g = diff::render_gradients(
-        &scene,
-        &file,
-        Path::new("test.toml"),
-        &p,
+/// The interior derivatives of `scene` (described by `desc`) for `p`.
+fn interior(
+    scene: &Scene,
+    desc: &SceneDescription,
+    p: &[ParamId],
+    integrator: IntegratorKind,
+    threads: Option<usize>,
+) -> Result<Gradients, diff::DiffError> {
+    diff::render_gradients(&GradientRender {
+        scene,
+        desc,
+        params: p,
         integrator,
-        diff::Visibility::Interior,
-        None,
-    )
-    .unwrap();
-    (g, scene, file)
+        visibility: diff::Visibility::Interior,
+        threads,
+    })
+}
+
+fn grads(
+    text: &str,
+    names: &[&str],
+    integrator: IntegratorKind,
+) -> (Gradients, Scene, SceneSource) {
+    let (scene, source) = load(text);
+    let p = params(names, &source.description);
+    let g = interior(&scene, &source.description, &p, integrator, None).unwrap();
+    (g, scene, source)
 }
 
 /// A Lambertian sphere of radius r at the origin seen head-on through the
@@ -102,7 +117,7 @@ fn lambert_sphere_centre_pixel_matches_closed_forms() {
     ];
     for (k, name) in names.iter().enumerate() {
         for (ch, &w) in want[k].iter().enumerate() {
-            let got = f64::from(g.mean[k][centre + ch]);
+            let got = f64::from(g.planes.mean[k][centre + ch]);
             assert!(
                 (got - w).abs() <= 1e-4 * w.abs().max(1e-3),
                 "{name} channel {ch}: AD {got} vs closed form {w}"
@@ -131,24 +146,16 @@ fn ad_vs_fd_with(
     name: &str,
     integrator: IntegratorKind,
 ) -> diff::Comparison {
-    let scene = parse_scene(text, path, overrides).unwrap();
-    let file: SceneFile = toml::from_str(text).unwrap();
-    let p = params(&[name], &file);
-    let g = diff::render_gradients(
-        &scene,
-        &file,
-        path,
-        &p,
+    let source = SceneSource::parse(text, path, overrides).unwrap();
+    let scene = source.build().unwrap();
+    let p = params(&[name], &source.description);
+    let g = interior(&scene, &source.description, &p, integrator, None).unwrap();
+    let h = diff::step_for(&source, p[0], None);
+    let renderer = Renderer {
         integrator,
-        diff::Visibility::Interior,
-        None,
-    )
-    .unwrap();
-    let h = diff::default_step(&p[0]);
-    diff::check_param(
-        path, text, &file, overrides, &scene, &g, 0, h, integrator, None,
-    )
-    .unwrap()
+        threads: None,
+    };
+    diff::check_param(&source, &scene, &g, 0, h, renderer).unwrap()
 }
 
 /// Every kind of primitive, a mirror-like floor, a glass sphere, two point
@@ -347,13 +354,13 @@ fn path_tracer_derivatives_match_fd_at_equal_seed() {
         rr_start: None,
         strategy: LightStrategy::Mis,
     };
-    let file: SceneFile = toml::from_str(&text).unwrap();
+    let source = SceneSource::parse(&text, &cornell, &overrides).unwrap();
     let mut names: Vec<String> = Vec::new();
-    for (m, mat) in &file.materials {
-        if mat.get_ref().emission.max_element() > 0.0 {
-            names.push(format!("materials.{m}.emission[1]"));
+    for m in &source.description.materials {
+        if m.material.emission.max_element() > 0.0 {
+            names.push(format!("materials.{}.emission[1]", m.name));
         } else {
-            names.push(format!("materials.{m}.color[0]"));
+            names.push(format!("materials.{}.color[0]", m.name));
         }
     }
     for name in &names {
@@ -387,13 +394,13 @@ fn furnace_derivatives_match_the_closed_form() {
     let n = (g.width * g.height) as usize;
     for (k, name) in names.iter().enumerate() {
         // The red channel only: the parameters are red components.
-        let mean: f64 = g.mean[k]
+        let mean: f64 = g.planes.mean[k]
             .iter()
             .step_by(3)
             .map(|&x| f64::from(x))
             .sum::<f64>()
             / n as f64;
-        let var: f64 = g.variance[k]
+        let var: f64 = g.planes.variance[k]
             .iter()
             .step_by(3)
             .map(|&x| f64::from(x))
@@ -405,7 +412,11 @@ fn furnace_derivatives_match_the_closed_form() {
             "{name}: {mean} ± {se}, expected 5"
         );
         // Green and blue do not depend on red parameters.
-        assert!(g.mean[k].iter().skip(1).step_by(3).all(|&x| x == 0.0));
+        assert!(g.planes.mean[k]
+            .iter()
+            .skip(1)
+            .step_by(3)
+            .all(|&x| x == 0.0));
     }
 }
 
@@ -419,37 +430,27 @@ fn gradients_are_identical_on_one_and_two_threads() {
         sampler: Some(raylab::sampler::Sampler::Random { n: 4 }),
         ..Overrides::default()
     };
-    let scene = parse_scene(&text, &cornell, &overrides).unwrap();
-    let file: SceneFile = toml::from_str(&text).unwrap();
-    let names: Vec<String> = file
+    let source = SceneSource::parse(&text, &cornell, &overrides).unwrap();
+    let scene = source.build().unwrap();
+    let desc = &source.description;
+    let names: Vec<String> = desc
         .materials
-        .keys()
+        .iter()
         .take(2)
-        .map(|m| format!("materials.{m}.color"))
+        .map(|m| format!("materials.{}.color", m.name))
         .collect();
-    let p = diff::resolve_all(&names, &file).unwrap();
+    let p = diff::resolve_all(&names, desc).unwrap();
     let integrator = IntegratorKind::parse("path:3").unwrap();
-    let run = |t| {
-        diff::render_gradients(
-            &scene,
-            &file,
-            &cornell,
-            &p,
-            integrator,
-            diff::Visibility::Interior,
-            Some(t),
-        )
-        .unwrap()
-    };
+    let run = |t| interior(&scene, desc, &p, integrator, Some(t)).unwrap();
     let (a, b) = (run(1), run(2));
     for k in 0..p.len() {
-        assert!(a.mean[k]
+        assert!(a.planes.mean[k]
             .iter()
-            .zip(&b.mean[k])
+            .zip(&b.planes.mean[k])
             .all(|(x, y)| x.to_bits() == y.to_bits()));
-        assert!(a.variance[k]
+        assert!(a.planes.variance[k]
             .iter()
-            .zip(&b.variance[k])
+            .zip(&b.planes.variance[k])
             .all(|(x, y)| x.to_bits() == y.to_bits()));
     }
 }
@@ -459,7 +460,8 @@ fn gradients_are_identical_on_one_and_two_threads() {
 /// the one traversal found, to rounding).
 #[test]
 fn seventeen_parameters_take_two_passes_and_agree_with_one() {
-    let (_, file) = load(KINDS);
+    let (scene, source) = load(KINDS);
+    let desc = &source.description;
     let many = params(
         &[
             "materials.red.color",
@@ -469,38 +471,20 @@ fn seventeen_parameters_take_two_passes_and_agree_with_one() {
             "light[1].position",
             "sphere[0].center",
         ],
-        &file,
+        desc,
     );
     assert_eq!(many.len(), 18);
-    let (scene, _) = load(KINDS);
-    let all = diff::render_gradients(
-        &scene,
-        &file,
-        Path::new("test.toml"),
-        &many,
-        IntegratorKind::Whitted,
-        diff::Visibility::Interior,
-        None,
-    )
-    .unwrap();
-    let one = diff::render_gradients(
-        &scene,
-        &file,
-        Path::new("test.toml"),
-        &many[17..],
-        IntegratorKind::Whitted,
-        diff::Visibility::Interior,
-        None,
-    )
-    .unwrap();
-    assert_eq!(all.mean.len(), 18);
-    assert_eq!(all.mean[17], one.mean[0]);
+    let all = interior(&scene, desc, &many, IntegratorKind::Whitted, None).unwrap();
+    let one = interior(&scene, desc, &many[17..], IntegratorKind::Whitted, None).unwrap();
+    assert_eq!(all.planes.mean.len(), 18);
+    assert_eq!(all.planes.mean[17], one.planes.mean[0]);
 }
 
 #[test]
 fn parameter_names_are_checked() {
-    let (_, file) = load(KINDS);
-    let err = |name: &str| diff::resolve(name, &file).unwrap_err();
+    let (_, source) = load(KINDS);
+    let file = &source.description;
+    let err = |name: &str| diff::resolve(name, file).unwrap_err().to_string();
     let cases: &[(&str, &[&str])] = &[
         (
             "materials.blue.color",
@@ -542,49 +526,43 @@ fn parameter_names_are_checked() {
         }
     }
     // A vector without an index is its three components; points nine.
-    assert_eq!(diff::resolve("light[0].position", &file).unwrap().len(), 3);
+    assert_eq!(diff::resolve("light[0].position", file).unwrap().len(), 3);
     assert_eq!(
-        diff::resolve("triangle[0].vertices", &file).unwrap().len(),
+        diff::resolve("triangle[0].vertices", file).unwrap().len(),
         9
     );
     assert_eq!(
-        diff::resolve("triangle[0].vertices[1]", &file)
+        diff::resolve("triangle[0].vertices[1]", file)
             .unwrap()
             .len(),
         3
     );
-    let p = &diff::resolve("triangle[0].vertices[2][1]", &file).unwrap()[0];
-    assert_eq!((p.component, p.value), (7, 2.0));
+    let p = diff::resolve("triangle[0].vertices[2][1]", file).unwrap()[0];
+    assert_eq!((p.component, file.value(p)), (7, 2.0));
+    assert_eq!(file.param_name(p), "triangle[0].vertices[2][1]");
     // Defaults are parameters: the light's colour is white unless given.
-    assert_eq!(
-        diff::resolve("light[0].color[1]", &file).unwrap()[0].value,
-        1.0
-    );
+    let c = diff::resolve("light[0].color[1]", file).unwrap()[0];
+    assert_eq!(file.value(c), 1.0);
     assert!(diff::resolve_all(
         &["light[0].intensity".into(), "light[0].intensity".into()],
-        &file
+        file
     )
     .unwrap_err()
+    .to_string()
     .contains("named twice"));
 }
 
 #[test]
 fn unsupported_set_ups_are_refused() {
-    let (scene, file) = load(LAMBERT);
-    let p = params(&["light[0].intensity"], &file);
+    let (scene, source) = load(LAMBERT);
+    let desc = &source.description;
+    let p = params(&["light[0].intensity"], desc);
     let ff = IntegratorKind::parse("floodfill").unwrap();
-    let e = diff::render_gradients(
-        &scene,
-        &file,
-        Path::new("t.toml"),
-        &p,
-        ff,
-        diff::Visibility::Interior,
-        None,
-    )
-    .unwrap_err();
+    let e = interior(&scene, desc, &p, ff, None)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("flood fill"), "{e}");
-    let adaptive = parse_scene(
+    let adaptive = SceneSource::parse(
         LAMBERT,
         Path::new("t.toml"),
         &Overrides {
@@ -592,16 +570,11 @@ fn unsupported_set_ups_are_refused() {
             ..Overrides::default()
         },
     )
+    .unwrap()
+    .build()
     .unwrap();
-    let e = diff::render_gradients(
-        &adaptive,
-        &file,
-        Path::new("t.toml"),
-        &p,
-        IntegratorKind::Whitted,
-        diff::Visibility::Interior,
-        None,
-    )
-    .unwrap_err();
+    let e = interior(&adaptive, desc, &p, IntegratorKind::Whitted, None)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("adaptive"), "{e}");
 }

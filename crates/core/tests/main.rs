@@ -10,6 +10,7 @@ mod floodfill_render;
 mod grad;
 #[cfg(feature = "obvhs")]
 mod obvhs;
+mod params;
 mod path;
 mod readers;
 mod render;

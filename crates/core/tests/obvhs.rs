@@ -34,7 +34,6 @@ use raylab::io::scene_file::{load_scene, Overrides};
 use raylab::shape::{Intersect, PreparedRay, Primitive, Shape};
 use raylab::stats::NoStats;
 use rayon::prelude::*;
-use std::path::Path;
 
 use raylab_testkit::meshes::{all_ids, mesh_prims, rays_for, reference};
 

@@ -35,7 +35,6 @@ use raylab::io::scene_file::{parse_scene, Overrides};
 use raylab::math::SplitMix64;
 use raylab::stats::Counters;
 use std::fmt::Write as _;
-use std::path::Path;
 
 const SCENES: usize = 300;
 

@@ -18,8 +18,6 @@ use raylab::scene::Scene;
 use raylab::shape::PreparedRay;
 use raylab::stats::Counters;
 use raylab_gpu::{Gpu, GpuRender};
-use std::path::Path;
-use std::sync::OnceLock;
 
 use raylab_testkit::gpu::{gpu, TOLERANCE};
 

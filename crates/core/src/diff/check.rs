@@ -1,19 +1,20 @@
 //! Finite differences, the check of the derivatives, written once.
 //!
 //! The central difference (I(p + h) − I(p − h)) / 2h comes from two
-//! ordinary `f32` renders of the scene file with the parameter's *text*
-//! changed, reloaded by the scene loader: it shares no code with the dual
-//! numbers beyond the renderer itself. Both renders use the scene's seed
-//! (common random numbers), so their noise largely cancels in the
-//! difference.
+//! ordinary `f32` renders of the scene with the parameter's value changed
+//! in its description (through the parameter table) and the scene built
+//! again: a numerical derivative of the very code the dual numbers
+//! differentiate (the scene builder and the renderer), sharing none of the
+//! derivative code itself. Both renders use the scene's seed (common
+//! random numbers), so their noise largely cancels in the difference.
 //!
 //! **The step.** The central difference's error is about
 //! h²·|I‴|/6 (truncation) + ε·|I|/h (round-off of the two renders, ε the
 //! `f32` unit round-off 2⁻²³), smallest at h ≈ (3ε|I|/|I‴|)^⅓. Taking the
 //! parameter's own size as the scale on which I varies (|I|/|I‴| ≈ p²,
 //! at least 1), the rule is h = ε^⅓ · max(|p|, 1) ≈ 4.9e-3 · max(|p|, 1)
-//! ([`default_step`]). The step actually used is the one the `f32` file
-//! values realise, ((p + h) − (p − h))/2 after rounding to `f32`.
+//! ([`default_step`]). The step actually used is the one the `f32` values
+//! realise, ((p + h) − (p − h))/2 after rounding to `f32`.
 //!
 //! **Edges.** Away from edges the image is smooth in the parameter and the
 //! difference converges to the interior derivative; at silhouettes and
@@ -22,126 +23,40 @@
 //! differences at h and h/2, see there) so that the per-pixel comparison
 //! can leave them out.
 
-use super::params::{field_values, Entity, Param};
+use super::params::default_step;
 use super::render::Gradients;
+use super::DiffError;
 use crate::film::LinearImage;
 use crate::integrator::IntegratorKind;
-use crate::io::scene_file::{parse_scene, Overrides, SceneFile};
+use crate::io::scene_file::SceneSource;
+use crate::scene::param::ParamId;
 use crate::scene::Scene;
 use crate::stats::NoStats;
 use glam::Vec2;
-use std::path::Path;
 
-/// The default step of the central difference for `p` (module docs).
-pub fn default_step(p: &Param) -> f32 {
-    f32::EPSILON.cbrt() * p.value.abs().max(1.0)
+/// The renders a check makes: the integrator, and the threads (`None`:
+/// all cores).
+#[derive(Clone, Copy, Debug)]
+pub struct Renderer {
+    pub integrator: IntegratorKind,
+    pub threads: Option<usize>,
 }
 
-/// The scene file's text with parameter `p` set to `value` (the other
-/// components of its field kept, defaults written out).
-pub fn scene_text_with(
-    text: &str,
-    file: &SceneFile,
-    p: &Param,
-    value: f32,
-) -> Result<String, String> {
-    scene_text_with_all(text, file, &[(p, value)])
-}
-
-/// The scene file's text with every `(p, value)` set (components of one
-/// field may come in any order; the others keep their values, defaults
-/// written out). Comments are not kept.
-pub fn scene_text_with_all(
-    text: &str,
-    file: &SceneFile,
-    values: &[(&Param, f32)],
-) -> Result<String, String> {
-    let mut table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
-    // Each field once, with all its set components.
-    let mut fields: Vec<(&Param, Vec<f32>)> = Vec::new();
-    for &(p, value) in values {
-        let at = fields
-            .iter()
-            .position(|(q, _)| q.entity == p.entity && q.field == p.field);
-        let i = match at {
-            Some(i) => i,
-            None => {
-                fields.push((p, field_values(file, p.entity, p.field)?));
-                fields.len() - 1
-            }
-        };
-        fields[i].1[p.component] = value;
+impl Renderer {
+    /// The image of `scene`.
+    fn image(&self, scene: &Scene) -> Result<LinearImage, DiffError> {
+        let (film, _) = self
+            .integrator
+            .render::<NoStats>(scene, self.threads)
+            .map_err(DiffError::Render)?;
+        Ok(film.image())
     }
-    for (p, values) in fields {
-        set_field(&mut table, file, p, &values)?;
-    }
-    toml::to_string(&table).map_err(|e| e.to_string())
 }
 
-/// Write `values` (the whole field of `p`) into the scene file's table.
-fn set_field(
-    table: &mut toml::Table,
-    file: &SceneFile,
-    p: &Param,
-    values: &[f32],
-) -> Result<(), String> {
-    let num = |v: f32| toml::Value::Float(f64::from(v));
-    let new = match values.len() {
-        1 => num(values[0]),
-        3 => toml::Value::Array(values.iter().map(|&v| num(v)).collect()),
-        _ => toml::Value::Array(
-            values
-                .chunks(3)
-                .map(|c| toml::Value::Array(c.iter().map(|&v| num(v)).collect()))
-                .collect(),
-        ),
-    };
-    let missing = |what: &str| format!("the scene file has no {what}");
-    let section: &mut toml::Table = match p.entity {
-        Entity::Camera => table
-            .get_mut("camera")
-            .and_then(|v| v.as_table_mut())
-            .ok_or_else(|| missing("[camera]"))?,
-        Entity::Render => table
-            .entry("render")
-            .or_insert_with(|| toml::Value::Table(toml::Table::new()))
-            .as_table_mut()
-            .ok_or_else(|| missing("[render] table"))?,
-        Entity::Material(i) => {
-            let name = file
-                .materials
-                .keys()
-                .nth(i as usize)
-                .ok_or_else(|| missing("such material"))?;
-            table
-                .get_mut("materials")
-                .and_then(|m| m.get_mut(name.as_str()))
-                .and_then(|v| v.as_table_mut())
-                .ok_or_else(|| missing(&format!("[materials.{name}]")))?
-        }
-        Entity::Sphere(i)
-        | Entity::Ellipsoid(i)
-        | Entity::Plane(i)
-        | Entity::Triangle(i)
-        | Entity::Mesh(i)
-        | Entity::Light(i) => {
-            let key = match p.entity {
-                Entity::Sphere(_) => "sphere",
-                Entity::Ellipsoid(_) => "ellipsoid",
-                Entity::Plane(_) => "plane",
-                Entity::Triangle(_) => "triangle",
-                Entity::Mesh(_) => "mesh",
-                _ => "light",
-            };
-            table
-                .get_mut(key)
-                .and_then(|a| a.get_mut(i as usize))
-                .and_then(|v| v.as_table_mut())
-                .ok_or_else(|| missing(&format!("{key}[{i}]")))?
-        }
-    };
-    section.insert(p.field.to_string(), new);
-    Ok(())
+/// The step of the central difference for parameter `p` of `source`'s
+/// scene: `step`, or the default rule of the module docs.
+pub fn step_for(source: &SceneSource, p: ParamId, step: Option<f32>) -> f32 {
+    step.unwrap_or_else(|| default_step(source.description.value(p)))
 }
 
 /// A central difference of one parameter.
@@ -161,41 +76,30 @@ pub struct Difference {
     pub scenes: [Scene; 2],
 }
 
-/// The scene at `path` (text `text`) with `p` set to `v`, loaded with
-/// `overrides`; an error says which value failed and why.
-fn load_with(
-    path: &Path,
-    text: &str,
-    file: &SceneFile,
-    overrides: &Overrides,
-    p: &Param,
-    v: f32,
-) -> Result<Scene, String> {
-    let t = scene_text_with(text, file, p, v)?;
-    parse_scene(&t, path, overrides).map_err(|e| {
-        format!(
+/// The scene of `source` with `p` set to `v` (its description changed
+/// through the parameter table, then built); an error says which value
+/// failed and why.
+fn moved(source: &SceneSource, p: ParamId, v: f32) -> Result<Scene, DiffError> {
+    let mut desc = source.description.clone();
+    desc.set_value(p, v);
+    source.build_from(&desc).map_err(|e| {
+        DiffError::Step(format!(
             "{}: {} set to {v} for the central difference: {} (the difference needs \
              p ± h in range: give a smaller step with `fd:H`)",
-            path.display(),
-            p.name,
+            source.path.display(),
+            source.description.param_name(p),
             e.message
-        )
+        ))
     })
 }
 
-/// Check, without rendering, that the scene file still loads with `p` set
-/// to p ± h (a colour at 0 cannot go below it, a radius must stay
+/// Check, without rendering, that the scene still builds with `p` set to
+/// p ± h (a colour at 0 cannot go below it, a radius must stay
 /// positive…), so that a check fails before anything is written.
-pub fn check_step(
-    path: &Path,
-    text: &str,
-    file: &SceneFile,
-    overrides: &Overrides,
-    p: &Param,
-    h: f32,
-) -> Result<(), String> {
-    for v in [p.value - h, p.value + h] {
-        load_with(path, text, file, overrides, p, v)?;
+pub fn check_step(source: &SceneSource, p: ParamId, h: f32) -> Result<(), DiffError> {
+    let value = source.description.value(p);
+    for v in [value - h, value + h] {
+        moved(source, p, v)?;
     }
     Ok(())
 }
@@ -213,35 +117,26 @@ pub struct Step {
 }
 
 /// The central difference of the image in `p` with step `step` alone (the
-/// scene at `path`, whose text is `text`, rendered with `overrides` and
-/// `integrator` on `threads` threads): the finite-difference *estimator*,
-/// two renders with the scene's seed.
-#[allow(clippy::too_many_arguments)]
+/// scene of `source` rendered by `renderer`): the finite-difference
+/// *estimator*, two renders with the scene's seed.
 pub fn difference_step(
-    path: &Path,
-    text: &str,
-    file: &SceneFile,
-    overrides: &Overrides,
-    p: &Param,
+    source: &SceneSource,
+    p: ParamId,
     step: f32,
-    integrator: IntegratorKind,
-    threads: Option<usize>,
-) -> Result<Step, String> {
-    let render = |s: &Scene| -> Result<LinearImage, String> {
-        let (film, _) = integrator.render::<NoStats>(s, threads)?;
-        Ok(film.image())
-    };
-    let (vp, vm) = (p.value + step, p.value - step);
-    let plus = load_with(path, text, file, overrides, p, vp)?;
-    let minus = load_with(path, text, file, overrides, p, vm)?;
+    renderer: Renderer,
+) -> Result<Step, DiffError> {
+    let value = source.description.value(p);
+    let (vp, vm) = (value + step, value - step);
+    let plus = moved(source, p, vp)?;
+    let minus = moved(source, p, vm)?;
     let h = 0.5 * (vp - vm);
     if h <= 0.0 {
-        return Err(format!(
-            "step {step} is too small for `{}` = {} in f32",
-            p.name, p.value
-        ));
+        return Err(DiffError::Step(format!(
+            "step {step} is too small for `{}` = {value} in f32",
+            source.description.param_name(p)
+        )));
     }
-    let (ip, im) = (render(&plus)?, render(&minus)?);
+    let (ip, im) = (renderer.image(&plus)?, renderer.image(&minus)?);
     let per_pixel = ip
         .iter()
         .zip(im.iter())
@@ -258,30 +153,22 @@ pub fn difference_step(
 }
 
 /// Render the central difference of the image in `p` with step `h` (the
-/// scene at `path`, whose text is `text`, rendered with `overrides` and
-/// `integrator` on `threads` threads): renders at p ± h and p ± h/2, and
-/// the image at p.
-#[allow(clippy::too_many_arguments)]
+/// scene of `source` rendered by `renderer`): renders at p ± h and
+/// p ± h/2, and the image at p.
 pub fn central_difference(
-    path: &Path,
-    text: &str,
-    file: &SceneFile,
-    overrides: &Overrides,
-    p: &Param,
+    source: &SceneSource,
+    p: ParamId,
     h: f32,
-    integrator: IntegratorKind,
-    threads: Option<usize>,
-) -> Result<Difference, String> {
-    let step = |h| difference_step(path, text, file, overrides, p, h, integrator, threads);
-    let full = step(h)?;
-    let half = step(0.5 * h)?;
-    let base = load_with(path, text, file, overrides, p, p.value)?;
-    let (film, _) = integrator.render::<NoStats>(&base, threads)?;
+    renderer: Renderer,
+) -> Result<Difference, DiffError> {
+    let full = difference_step(source, p, h, renderer)?;
+    let half = difference_step(source, p, 0.5 * h, renderer)?;
+    let base = moved(source, p, source.description.value(p))?;
     Ok(Difference {
         h: full.h,
         per_pixel: full.per_pixel,
         per_pixel_half: half.per_pixel,
-        image: film.image().iter().copied().collect(),
+        image: renderer.image(&base)?.iter().copied().collect(),
         image_mean: full.image_mean,
         scenes: full.scenes,
     })
@@ -490,23 +377,17 @@ pub fn compare(
 
 /// The whole check of parameter `g.params[i]`: the central difference with
 /// step `h` ([`central_difference`]), the [`edge_mask`] and the
-/// [`compare`]son with the AD images `g` of `scene` (loaded from `path`,
-/// whose text is `text`, with `overrides`).
-#[allow(clippy::too_many_arguments)]
+/// [`compare`]son with the AD images `g` of `scene` (the scene of
+/// `source`).
 pub fn check_param(
-    path: &Path,
-    text: &str,
-    file: &SceneFile,
-    overrides: &Overrides,
+    source: &SceneSource,
     scene: &Scene,
     g: &Gradients,
     i: usize,
     h: f32,
-    integrator: IntegratorKind,
-    threads: Option<usize>,
-) -> Result<Comparison, String> {
-    let p = &g.params[i];
-    let fd = central_difference(path, text, file, overrides, p, h, integrator, threads)?;
+    renderer: Renderer,
+) -> Result<Comparison, DiffError> {
+    let fd = central_difference(source, g.params[i], h, renderer)?;
     let edges = edge_mask(&[scene, &fd.scenes[0], &fd.scenes[1]], &fd);
     Ok(compare(
         &g.grey(i),

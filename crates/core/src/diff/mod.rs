@@ -40,31 +40,79 @@ pub mod boundary;
 pub mod check;
 pub mod optimize;
 pub mod params;
+pub mod planes;
 pub mod render;
 pub mod rim;
 pub mod view;
 
 pub use boundary::{BoundaryStats, Visibility};
 pub use check::{
-    central_difference, check_param, check_step, compare, default_step, difference_step, edge_mask,
-    scene_text_with_all, Comparison, Difference,
+    central_difference, check_param, check_step, compare, difference_step, edge_mask, step_for,
+    Comparison, Difference, Renderer,
 };
-pub use params::{resolve, resolve_all, Entity, Param};
-pub use render::{check_supported, render_gradients, Gradients};
+pub use params::{default_step, resolve, resolve_all, MAX_PARAMS};
+pub use planes::Planes;
+pub use render::{check_supported, render_gradients, GradientRender, Gradients};
 pub use view::DualScene;
 
-use crate::io::scene_file::{parse_scene, Overrides, SceneFile};
+use crate::camera::CameraError;
+use crate::io::scene_file::{Overrides, SceneSource};
+use crate::io::InputError;
+use crate::scene::param::ParamError;
 use crate::scene::Scene;
 use std::path::Path;
 
-/// A scene file's text, its scene (loaded with `overrides`) and its parsed
-/// structure, which parameter names resolve against.
-pub fn load(path: &Path, overrides: &Overrides) -> Result<(String, Scene, SceneFile), String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read scene file: {e}", path.display()))?;
-    let scene = parse_scene(&text, path, overrides).map_err(|e| e.to_string())?;
-    // The loader has accepted the text, so this parse succeeds.
-    let file: SceneFile =
-        toml::from_str(&text).map_err(|e| format!("{}: {}", path.display(), e.message()))?;
-    Ok((text, scene, file))
+/// Why a derivative could not be computed.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum DiffError {
+    /// A scene file (or spec, or target image) that does not read or
+    /// check.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// A parameter name that does not resolve.
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    #[error("parameter `{0}` is named twice")]
+    NamedTwice(String),
+    #[error(
+        "more than {MAX_PARAMS} parameter components (the limit of one gradient render); \
+         split them over several runs"
+    )]
+    TooManyParams,
+    #[error("no parameter given (use --param, e.g. `--param materials.red.color`)")]
+    NoParams,
+    /// An integrator, sampler or filter the gradient render does not
+    /// differentiate.
+    #[error("{0}")]
+    Unsupported(String),
+    /// A camera whose frame degenerates at the parameters' values.
+    #[error("[camera]: {0}")]
+    Camera(CameraError),
+    /// A finite difference's step that leaves the parameter's range, or
+    /// vanishes in `f32`.
+    #[error("{0}")]
+    Step(String),
+    /// A render that failed (a flood-fill cache that cannot be built).
+    #[error("{0}")]
+    Render(String),
+    /// An optimisation that cannot go on (a target of the wrong size, a
+    /// scene the iterate leaves invalid, results that cannot be written).
+    #[error("{0}")]
+    Optimize(String),
+}
+
+/// Not `#[from]`: the variant's message already holds the camera's, so
+/// it has no `source` for an error chain to print twice.
+impl From<CameraError> for DiffError {
+    fn from(e: CameraError) -> Self {
+        Self::Camera(e)
+    }
+}
+
+/// A scene file read (with `overrides`) and its scene: parameter names
+/// resolve against the source's description.
+pub fn load(path: &Path, overrides: &Overrides) -> Result<(SceneSource, Scene), InputError> {
+    let source = SceneSource::load(path, overrides)?;
+    let scene = source.build()?;
+    Ok((source, scene))
 }

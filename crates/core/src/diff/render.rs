@@ -28,17 +28,19 @@
 use super::boundary::mirror::mirrors;
 use super::boundary::vertex::path_term;
 use super::boundary::{boundary_term, Boundary, Visibility};
-use super::params::Param;
-use super::rim::{moves_hits, rim_term, RimStats, Rims};
+use super::params::moves_hits;
+use super::planes::{PixelMoments, Planes, Spread};
+use super::rim::{rim_term, RimStats, Rims};
 use super::view::DualScene;
+use super::DiffError;
 use crate::film::Filter;
 use crate::integrator::{in_pool, IntegratorKind, SampleContext};
-use crate::io::scene_file::SceneFile;
 use crate::sampler::Sampler;
+use crate::scene::description::SceneDescription;
+use crate::scene::param::ParamId;
 use crate::scene::{Scene, View};
 use glam::Vec2;
 use rayon::prelude::*;
-use std::path::Path;
 
 /// The most parameters one pass carries.
 pub const MAX_K: usize = 16;
@@ -48,26 +50,24 @@ pub const MAX_K: usize = 16;
 pub struct Gradients {
     pub width: u32,
     pub height: u32,
-    pub params: Vec<Param>,
+    pub params: Vec<ParamId>,
     /// Per parameter, per pixel and channel (row-major, RGB interleaved):
-    /// the mean over the pixel's samples of ∂sample/∂param, plus (with
-    /// `Full` visibility) the boundary term.
-    pub mean: Vec<Vec<f32>>,
-    /// The same layout: `count` × the variance of the pixel's estimate
-    /// (divide by `count` for that variance). With `Interior` visibility
-    /// this is the unbiased sample variance of ∂sample/∂param.
-    pub variance: Vec<Vec<f32>>,
-    /// Per parameter, per pixel: the same for the channel mean (R+G+B)/3,
-    /// for the standard error of the image mean's derivative.
-    pub variance_grey: Vec<Vec<f32>>,
+    /// `mean` is the mean over the pixel's samples of ∂sample/∂param,
+    /// plus (with `Full` visibility) the boundary term; `variance` is
+    /// `count` × the variance of the pixel's estimate (divide by `count`
+    /// for that variance; with `Interior` visibility the unbiased sample
+    /// variance of ∂sample/∂param); `variance_grey` the same per pixel for
+    /// the channel mean (R+G+B)/3, for the standard error of the image
+    /// mean's derivative.
+    pub planes: Planes,
     /// Samples per pixel.
     pub count: u32,
     pub visibility: Visibility,
-    /// The boundary term alone (already in `mean`): empty planes and no
+    /// The boundary term alone (already in `planes`): empty planes and no
     /// samples with `Interior` visibility.
     pub boundary: Boundary,
     /// What the rim zones' sampler did (its part of the interior
-    /// derivative is in `mean`; [`super::rim`]).
+    /// derivative is in `planes`; [`super::rim`]).
     pub rim: RimStats,
 }
 
@@ -78,8 +78,12 @@ impl Gradients {
     /// variance).
     pub fn image_mean(&self, i: usize) -> (f64, f64) {
         let n = (self.width * self.height) as f64;
-        let mean = self.mean[i].iter().map(|&x| f64::from(x)).sum::<f64>() / (3.0 * n);
-        let var: f64 = self.variance_grey[i]
+        let mean = self.planes.mean[i]
+            .iter()
+            .map(|&x| f64::from(x))
+            .sum::<f64>()
+            / (3.0 * n);
+        let var: f64 = self.planes.variance_grey[i]
             .iter()
             .map(|&v| f64::from(v))
             .sum::<f64>()
@@ -90,7 +94,7 @@ impl Gradients {
     /// The standard error of [`Gradients::grey`] per pixel.
     pub fn grey_se(&self, i: usize) -> Vec<f32> {
         let m = self.count.max(1) as f32;
-        self.variance_grey[i]
+        self.planes.variance_grey[i]
             .iter()
             .map(|&v| (v / m).sqrt())
             .collect()
@@ -98,7 +102,7 @@ impl Gradients {
 
     /// Parameter `i`'s derivative per pixel, averaged over the channels.
     pub fn grey(&self, i: usize) -> Vec<f32> {
-        self.mean[i]
+        self.planes.mean[i]
             .chunks_exact(3)
             .map(|c| (c[0] + c[1] + c[2]) / 3.0)
             .collect()
@@ -107,23 +111,24 @@ impl Gradients {
 
 /// Check that `integrator` and the scene's sampler and filter are ones the
 /// gradient render supports.
-pub fn check_supported(scene: &Scene, integrator: &IntegratorKind) -> Result<(), String> {
+pub fn check_supported(scene: &Scene, integrator: &IntegratorKind) -> Result<(), DiffError> {
+    let refuse = |why: String| Err(DiffError::Unsupported(why));
     if let IntegratorKind::FloodFill(_) = integrator {
-        return Err(
+        return refuse(
             "the gradient render supports `whitted`, `direct` and `path:K`; flood fill's cache \
              is not differentiated"
                 .into(),
         );
     }
     if let Sampler::Adaptive { .. } = scene.settings.sampler {
-        return Err(
+        return refuse(
             "the gradient render needs a fixed sampler (adaptive sampling decides its sample \
              count from the image)"
                 .into(),
         );
     }
     if scene.settings.filter != Filter::Box {
-        return Err(format!(
+        return refuse(format!(
             "the gradient render averages each pixel's samples (the box filter); the scene \
              asks for `{}`: use `--filter box`",
             scene.settings.filter.name()
@@ -132,100 +137,70 @@ pub fn check_supported(scene: &Scene, integrator: &IntegratorKind) -> Result<(),
     Ok(())
 }
 
-/// Render the derivatives of `scene` (loaded from `file`, read from `path`)
-/// with respect to `params` with `integrator`, on `threads` threads (`None`:
-/// all cores): the interior derivative, plus the boundary term with
-/// `Full` visibility. The result is the same on any number of threads.
-pub fn render_gradients(
-    scene: &Scene,
-    file: &SceneFile,
-    path: &Path,
-    params: &[Param],
-    integrator: IntegratorKind,
-    visibility: Visibility,
-    threads: Option<usize>,
-) -> Result<Gradients, String> {
-    check_supported(scene, &integrator)?;
-    let cam = &scene.camera;
+/// What a gradient render differentiates and how: the scene, its
+/// description, the parameters, the integrator, the visibility term and
+/// the threads (`None`: all cores).
+#[derive(Clone, Copy)]
+pub struct GradientRender<'a> {
+    pub scene: &'a Scene,
+    pub desc: &'a SceneDescription,
+    pub params: &'a [ParamId],
+    pub integrator: IntegratorKind,
+    pub visibility: Visibility,
+    pub threads: Option<usize>,
+}
+
+/// Render the derivatives of `r.scene` with respect to `r.params`: the
+/// interior derivative, plus the boundary term with `Full` visibility.
+/// The result is the same on any number of threads.
+pub fn render_gradients(r: &GradientRender<'_>) -> Result<Gradients, DiffError> {
+    check_supported(r.scene, &r.integrator)?;
+    let cam = &r.scene.camera;
     let mut out = Gradients {
         width: cam.width,
         height: cam.height,
-        params: params.to_vec(),
-        mean: Vec::new(),
-        variance: Vec::new(),
-        variance_grey: Vec::new(),
-        count: scene.settings.sampler.spp(),
-        visibility,
+        params: r.params.to_vec(),
+        planes: Planes::default(),
+        count: r.scene.settings.sampler.spp(),
+        visibility: r.visibility,
         boundary: Boundary::default(),
         rim: RimStats::default(),
     };
-    for chunk in params.chunks(MAX_K) {
-        let run = (scene, file, path, chunk, integrator, visibility, threads);
-        let (mut mean, mut variance, mut grey, boundary, rim) = match chunk.len() {
-            1 => pass::<1>(run)?,
-            2 => pass::<2>(run)?,
-            3 | 4 => pass::<4>(run)?,
-            5..=8 => pass::<8>(run)?,
-            _ => pass::<16>(run)?,
+    for chunk in r.params.chunks(MAX_K) {
+        let pass = GradientRender {
+            params: chunk,
+            ..*r
         };
-        if let Some(b) = boundary {
-            let m = out.count as f32;
-            for k in 0..chunk.len() {
-                add(&mut mean[k], &b.mean[k], 1.0);
-                add(&mut variance[k], &b.variance[k], m);
-                add(&mut grey[k], &b.variance_grey[k], m);
-            }
+        let mut result = match chunk.len() {
+            1 => run_pass::<1>(&pass)?,
+            2 => run_pass::<2>(&pass)?,
+            3 | 4 => run_pass::<4>(&pass)?,
+            5..=8 => run_pass::<8>(&pass)?,
+            _ => run_pass::<16>(&pass)?,
+        };
+        if let Some(b) = result.boundary {
+            result.planes.add_scaled(&b.planes, out.count as f32);
             out.boundary.extend(b);
         }
-        out.rim.add(&rim);
-        out.mean.extend(mean);
-        out.variance.extend(variance);
-        out.variance_grey.extend(grey);
+        out.rim.add(&result.rim);
+        out.planes.extend(result.planes);
     }
     Ok(out)
 }
 
-/// a += s·b, element by element.
-fn add(a: &mut [f32], b: &[f32], s: f32) {
-    for (x, y) in a.iter_mut().zip(b) {
-        *x += s * y;
-    }
+/// What one pass of up to K parameters makes: the interior planes (the
+/// rim zones' part included), with `Full` visibility the boundary term,
+/// and the rim sampler's counters.
+struct Pass {
+    planes: Planes,
+    boundary: Option<Boundary>,
+    rim: RimStats,
 }
 
-/// The interior planes (mean, variance, grey variance), with `Full`
-/// visibility the boundary term, and the rim sampler's counters.
-type Planes = (
-    Vec<Vec<f32>>,
-    Vec<Vec<f32>>,
-    Vec<Vec<f32>>,
-    Option<Boundary>,
-    RimStats,
-);
-
-/// What one pass needs: the scene, its file and path, the parameters, the
-/// integrator, the visibility and the threads.
-type Run<'a> = (
-    &'a Scene,
-    &'a SceneFile,
-    &'a Path,
-    &'a [Param],
-    IntegratorKind,
-    Visibility,
-    Option<usize>,
-);
-
-/// Running sums of one pixel's samples' partials.
-struct PixelSums<const K: usize> {
-    s1: [[f64; 3]; K],
-    s2: [[f64; 3]; K],
-    g2: [f64; K],
-}
-
-/// One pass with K-wide duals for `params` (≤ K of them).
-fn pass<const K: usize>(
-    (scene, file, path, params, integrator, visibility, threads): Run<'_>,
-) -> Result<Planes, String> {
-    let view = DualScene::<K>::new(scene, file, path, params)?;
+/// One pass with K-wide duals for `r.params` (≤ K of them).
+fn run_pass<const K: usize>(r: &GradientRender<'_>) -> Result<Pass, DiffError> {
+    let (scene, params, integrator) = (r.scene, r.params, &r.integrator);
+    let view = DualScene::<K>::new(scene, r.desc, params)?;
     let (w, h) = (scene.camera.width as usize, scene.camera.height as usize);
     let sampler = scene.settings.sampler;
     let seed = scene.settings.seed;
@@ -244,98 +219,63 @@ fn pass<const K: usize>(
     } else {
         Rims::default()
     };
-    // Per row: for each pixel, (mean, variance, grey variance) per param.
     crate::integrator::progress::announce(h as u64);
-    let rows: Vec<Vec<[f32; 7]>> = in_pool(threads, || {
+    let rows: Vec<Vec<PixelMoments<K>>> = in_pool(r.threads, || {
         (0..h)
             .into_par_iter()
             .map(|py| {
-                let mut row = Vec::with_capacity(w * n);
-                for px in 0..w {
-                    let mut sums = PixelSums::<K> {
-                        s1: [[0.0; 3]; K],
-                        s2: [[0.0; 3]; K],
-                        g2: [0.0; K],
-                    };
-                    for index in 0..spp {
+                let row = (0..w)
+                    .map(|px| {
                         let (px, py) = (px as u32, py as u32);
-                        let off = sampler.sample(px, py, index, seed);
-                        let pos = Vec2::new(px as f32, py as f32) + off;
-                        let ray = view.camera_ray(pos.x, pos.y);
-                        if rims.owns(scene, &ray.value()) {
-                            // Counts 0: the rim sampler covers it.
-                            continue;
-                        }
-                        let ctx = SampleContext {
-                            px,
-                            py,
-                            index,
-                            seed,
-                        };
-                        let v = integrator.radiance_on(&view, &ray, &ctx);
-                        for k in 0..n {
-                            let d = [v.x.d[k], v.y.d[k], v.z.d[k]].map(f64::from);
-                            for (c, &dc) in d.iter().enumerate() {
-                                sums.s1[k][c] += dc;
-                                sums.s2[k][c] += dc * dc;
+                        let mut sums = PixelMoments::<K>::default();
+                        for index in 0..spp {
+                            let off = sampler.sample(px, py, index, seed);
+                            let pos = Vec2::new(px as f32, py as f32) + off;
+                            let ray = view.camera_ray(pos.x, pos.y);
+                            if rims.owns(scene, &ray.value()) {
+                                // Counts 0: the rim sampler covers it.
+                                continue;
                             }
-                            let g = (d[0] + d[1] + d[2]) / 3.0;
-                            sums.g2[k] += g * g;
+                            let ctx = SampleContext {
+                                px,
+                                py,
+                                index,
+                                seed,
+                            };
+                            let v = integrator.radiance_on(&view, &ray, &ctx);
+                            let partials: [[f64; 3]; K] = std::array::from_fn(|k| {
+                                [v.x.d[k], v.y.d[k], v.z.d[k]].map(f64::from)
+                            });
+                            sums.add(&partials[..n]);
                         }
-                    }
-                    let m = f64::from(spp);
-                    let var = |s1: f64, s2: f64| {
-                        if spp > 1 {
-                            ((s2 - s1 * s1 / m) / (m - 1.0)).max(0.0) as f32
-                        } else {
-                            0.0
-                        }
-                    };
-                    for k in 0..n {
-                        let (s1, s2) = (sums.s1[k], sums.s2[k]);
-                        let g1 = (s1[0] + s1[1] + s1[2]) / 3.0;
-                        row.push([
-                            (s1[0] / m) as f32,
-                            (s1[1] / m) as f32,
-                            (s1[2] / m) as f32,
-                            var(s1[0], s2[0]),
-                            var(s1[1], s2[1]),
-                            var(s1[2], s2[2]),
-                            var(g1, sums.g2[k]),
-                        ]);
-                    }
-                }
+                        sums
+                    })
+                    .collect();
                 crate::integrator::progress::row_done();
                 row
             })
             .collect()
     });
-    let mut mean = vec![Vec::with_capacity(w * h * 3); n];
-    let mut variance = vec![Vec::with_capacity(w * h * 3); n];
-    let mut grey = vec![Vec::with_capacity(w * h); n];
-    for row in rows {
-        for (j, v) in row.iter().enumerate() {
-            let k = j % n;
-            mean[k].extend_from_slice(&v[0..3]);
-            variance[k].extend_from_slice(&v[3..6]);
-            grey[k].push(v[6]);
+    let mut planes = Planes::zeros(n, scene.camera.width, scene.camera.height);
+    for (py, row) in rows.iter().enumerate() {
+        for (px, sums) in row.iter().enumerate() {
+            planes.add_pixel(py * w + px, n, sums, f64::from(spp), Spread::Samples);
         }
     }
     // The rim zones the pixel samples left out.
-    let rim = rim_term(&view, &rims, n, &integrator, spp, seed, threads);
-    let m = spp as f32;
-    for k in 0..n {
-        add(&mut mean[k], &rim.mean[k], 1.0);
-        add(&mut variance[k], &rim.variance[k], m);
-        add(&mut grey[k], &rim.variance_grey[k], m);
-    }
-    let boundary = (visibility == Visibility::Full).then(|| {
-        let mut b = boundary_term(&view, params, &integrator, spp as f32, seed, threads);
+    let rim = rim_term(&view, &rims, n, integrator, spp, seed, r.threads);
+    planes.add_scaled(&rim.planes, spp as f32);
+    let boundary = (r.visibility == Visibility::Full).then(|| {
+        let mut b = boundary_term(&view, params, integrator, spp as f32, seed, r.threads);
         // What paths meet after the camera ray (`direct`, `path:K`).
         if let Some(tracer) = integrator.path_tracer() {
-            b.absorb(path_term(&view, params, &tracer, spp, seed, threads));
+            b.absorb(path_term(&view, params, &tracer, spp, seed, r.threads));
         }
         b
     });
-    Ok((mean, variance, grey, boundary, rim.stats))
+    Ok(Pass {
+        planes,
+        boundary,
+        rim: rim.stats,
+    })
 }

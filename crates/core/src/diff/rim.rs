@@ -68,8 +68,8 @@
 //! the silhouette's length on the film in pixels (at most [`MAX_SAMPLES`]).
 
 use super::boundary::mirror::Mirror;
-use super::boundary::sums::{fold_into, PixelSums};
-use super::params::{Entity, Param};
+use super::boundary::sums::SparseSums;
+use super::planes::Planes;
 use super::view::DualScene;
 use crate::integrator::{in_pool, IntegratorKind, SampleContext};
 use crate::math::{orthonormal_basis, reflect, Dual, Ray, Real, SplitMix64, Vec3, V3};
@@ -78,20 +78,6 @@ use crate::shape::{Hit, Shape};
 use crate::stats::NoStats;
 use rayon::prelude::*;
 use std::time::Instant;
-
-/// Whether parameter `p` moves what a camera ray meets at a fixed film
-/// point (an object, a plane, the camera, an index of refraction): only
-/// then has the interior integrand the rim singularity. A light's
-/// position or a colour changes the shading smoothly there, and for them
-/// the gradient render stays the derivative of the render's own samples.
-pub fn moves_hits(p: &Param) -> bool {
-    match p.entity {
-        Entity::Sphere(_) | Entity::Ellipsoid(_) | Entity::Triangle(_) | Entity::Mesh(_) => true,
-        Entity::Camera | Entity::Plane(_) => true,
-        Entity::Material(_) => p.field == "ior",
-        Entity::Light(_) | Entity::Render => false,
-    }
-}
 
 /// The viewing cosine below which a sphere's hit is in its rim zone.
 pub const RIM_COS: f32 = 0.25;
@@ -314,9 +300,7 @@ impl Rims {
 /// pixel and channel, the mean and the variance of the mean; per pixel the
 /// variance of the channel mean; and the counters.
 pub struct RimTerm {
-    pub mean: Vec<Vec<f32>>,
-    pub variance: Vec<Vec<f32>>,
-    pub variance_grey: Vec<Vec<f32>>,
+    pub planes: Planes,
     pub stats: RimStats,
 }
 
@@ -354,11 +338,8 @@ pub fn rim_term<const K: usize>(
     let start = Instant::now();
     let scene = view.scene();
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let pixels = w as usize * h as usize;
     let mut out = RimTerm {
-        mean: vec![vec![0.0; 3 * pixels]; n],
-        variance: vec![vec![0.0; 3 * pixels]; n],
-        variance_grey: vec![vec![0.0; pixels]; n],
+        planes: Planes::zeros(n, w, h),
         stats: RimStats::default(),
     };
     let seed = SplitMix64::mix(seed ^ 0x0052_494D_5A4F_4E45);
@@ -386,11 +367,11 @@ pub fn rim_term<const K: usize>(
         out.stats.samples += samples;
         let via = view_.via.map_or(0, |m| m as u64 + 1);
         let sphere_seed = SplitMix64::mix(seed ^ u64::from(view_.prim) ^ (via << 32));
-        let chunks: Vec<(PixelSums<K>, u64, u64)> = in_pool(threads, || {
+        let chunks: Vec<(SparseSums<K>, u64, u64)> = in_pool(threads, || {
             (0..samples.div_ceil(CHUNK))
                 .into_par_iter()
                 .map(|chunk| {
-                    let mut sums = PixelSums::<K>::new(n);
+                    let mut sums = SparseSums::<K>::new(n);
                     let (mut landed, mut dropped) = (0, 0);
                     for k in chunk * CHUNK..((chunk + 1) * CHUNK).min(samples) {
                         let sample = (k, samples, sphere_seed);
@@ -423,19 +404,14 @@ pub fn rim_term<const K: usize>(
                 })
                 .collect()
         });
-        let mut all = PixelSums::<K>::new(n);
+        let mut all = SparseSums::<K>::new(n);
         for (sums, landed, dropped) in chunks {
             all.merge(sums);
             out.stats.landed += landed;
             out.stats.dropped += dropped;
         }
         let samples = u32::try_from(samples).unwrap_or(u32::MAX);
-        let planes = (
-            &mut out.mean[..],
-            &mut out.variance[..],
-            &mut out.variance_grey[..],
-        );
-        fold_into(all.finish(samples), n, planes);
+        all.add_to(&mut out.planes, samples);
     }
     out.stats.seconds = start.elapsed().as_secs_f64();
     out

@@ -21,21 +21,9 @@ pub use ply::{parse_ply, read_ply};
 pub use three_ds::{parse_3ds, read_3ds};
 
 use super::InputError;
+pub use crate::shape::MeshData;
 use glam::Vec3;
 use std::path::Path;
-
-/// A triangle mesh as read from a file. Polygons are split into triangle
-/// fans. `normals` is empty or holds one unit normal per position.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct MeshData {
-    /// Vertex positions, finite, in the file's coordinates.
-    pub positions: Vec<Vec3>,
-    /// Unit vertex normals, one per position, or empty when the file has
-    /// none (or one that is zero or not finite).
-    pub normals: Vec<Vec3>,
-    /// Triangles as indices into `positions`, all in range.
-    pub triangles: Vec<[u32; 3]>,
-}
 
 /// The file extensions [`read_mesh`] understands, in lower case.
 pub const MESH_EXTENSIONS: [&str; 4] = ["obj", "ply", "off", "3ds"];

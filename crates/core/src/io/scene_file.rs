@@ -1,68 +1,80 @@
-//! Scene files: TOML, parsed with serde. The schema is documented in the
-//! book's reference (`book/src/reference/scene-files.md`). Unknown fields, unknown material names, bad
-//! values and unreadable meshes are errors that name the file and the line.
+//! Scene files: TOML, parsed with serde into a
+//! [`SceneDescription`](crate::scene::description::SceneDescription) (the
+//! file's numbers, checked, meshes read once), from which
+//! [`Scene::build`] makes the scene. The schema is documented in the
+//! book's reference (`book/src/reference/scene-files.md`). Unknown fields,
+//! unknown material names, bad values and unreadable meshes are errors
+//! that name the file and the line.
+//!
+//! A [`SceneSource`] keeps the file's text and where each entity is in it,
+//! so that an error found later (a parameter set out of range by a
+//! finite difference, a camera whose frame degenerates) still names its
+//! place, and so that new values of parameters can be written back into
+//! the text ([`SceneSource::text_with`]).
 
 use super::procedural::Procedural;
-use super::{line_col, InputError, MeshData, Place};
+use super::{line_col, InputError, Place};
 use crate::accel::AccelKind;
-use crate::camera::Camera;
+use crate::camera::CameraDesc;
 use crate::film::Filter;
-use crate::light::{Falloff, PointLight};
+use crate::light::Falloff;
 use crate::material::Material;
-use crate::math::{rotation_xyz_degrees, Color, Mat3, Real, Vec3, M3, V3};
+use crate::math::{Color, Vec3};
 use crate::sampler::Sampler;
-use crate::scene::{MeshShading, RenderSettings, Scene, SceneObject};
-use crate::shape::{Ellipsoid, Plane, Primitive, Shape, Sphere, Triangle};
+use crate::scene::description::{
+    EllipsoidDesc, LightDesc, MeshDesc, NamedMaterial, Normals, PlaneDesc, Scale, SceneDescription,
+    SphereDesc, TriangleDesc,
+};
+use crate::scene::param::{Entity, Shape, Target};
+use crate::scene::{RenderSettings, Scene, SceneError};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use toml::Spanned;
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
-pub struct SceneFile {
-    pub image: ImageDef,
-    pub camera: CameraDef,
+struct SceneFile {
+    image: ImageDef,
+    camera: CameraDef,
     #[serde(default)]
-    pub render: RenderDef,
+    render: RenderDef,
     #[serde(default)]
-    pub materials: BTreeMap<String, Spanned<Material>>,
+    materials: BTreeMap<String, Spanned<Material>>,
     #[serde(default)]
-    pub sphere: Vec<Spanned<SphereDef>>,
+    sphere: Vec<Spanned<SphereDef>>,
     #[serde(default)]
-    pub ellipsoid: Vec<Spanned<EllipsoidDef>>,
+    ellipsoid: Vec<Spanned<EllipsoidDef>>,
     #[serde(default)]
-    pub plane: Vec<Spanned<PlaneDef>>,
+    plane: Vec<Spanned<PlaneDef>>,
     #[serde(default)]
-    pub triangle: Vec<Spanned<TriangleDef>>,
+    triangle: Vec<Spanned<TriangleDef>>,
     #[serde(default)]
-    pub mesh: Vec<Spanned<MeshDef>>,
+    mesh: Vec<Spanned<MeshDef>>,
     #[serde(default)]
-    pub light: Vec<Spanned<LightDef>>,
+    light: Vec<Spanned<LightDef>>,
 }
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
-pub struct ImageDef {
-    pub width: u32,
-    pub height: u32,
+struct ImageDef {
+    width: u32,
+    height: u32,
 }
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
-pub struct CameraDef {
-    pub eye: Vec3,
-    pub look_at: Vec3,
+struct CameraDef {
+    eye: Vec3,
+    look_at: Vec3,
     #[serde(default = "default_up")]
-    pub up: Vec3,
-    /// Vertical view angle θ in degrees.
-    pub fov: f32,
-    /// Near-plane distance N.
+    up: Vec3,
+    fov: f32,
     #[serde(default = "one")]
-    pub near: f32,
-    /// W/H; defaults to width/height.
-    pub aspect: Option<f32>,
+    near: f32,
+    aspect: Option<f32>,
 }
 
 fn default_up() -> Vec3 {
@@ -71,20 +83,23 @@ fn default_up() -> Vec3 {
 fn one() -> f32 {
     1.0
 }
+fn white() -> Color {
+    Color::ONE
+}
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields, default)]
-pub struct RenderDef {
-    pub background: Color,
-    pub ambient: Color,
-    pub max_depth: u32,
-    pub min_weight: f32,
-    pub max_distance: f32,
-    pub sampler: Spanned<String>,
+struct RenderDef {
+    background: Color,
+    ambient: Color,
+    max_depth: u32,
+    min_weight: f32,
+    max_distance: f32,
+    sampler: Spanned<String>,
     /// Reconstruction filter: `box`, `tent` or `mitchell`.
-    pub filter: Spanned<String>,
-    pub seed: u64,
-    pub accel: Spanned<String>,
+    filter: Spanned<String>,
+    seed: u64,
+    accel: Spanned<String>,
 }
 
 impl Default for RenderDef {
@@ -106,42 +121,41 @@ impl Default for RenderDef {
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
-pub struct SphereDef {
-    pub center: Vec3,
-    pub radius: f32,
-    pub material: Spanned<String>,
+struct SphereDef {
+    center: Vec3,
+    radius: f32,
+    material: Spanned<String>,
 }
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
-pub struct EllipsoidDef {
-    pub center: Vec3,
-    pub radii: Vec3,
-    /// Euler angles in degrees about x, then y, then z.
+struct EllipsoidDef {
+    center: Vec3,
+    radii: Vec3,
     #[serde(default)]
-    pub rotate: Vec3,
-    pub material: Spanned<String>,
+    rotate: Vec3,
+    material: Spanned<String>,
 }
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
-pub struct PlaneDef {
-    pub point: Vec3,
-    pub normal: Vec3,
-    pub material: Spanned<String>,
+struct PlaneDef {
+    point: Vec3,
+    normal: Vec3,
+    material: Spanned<String>,
 }
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
-pub struct TriangleDef {
-    pub vertices: [Vec3; 3],
-    pub material: Spanned<String>,
+struct TriangleDef {
+    vertices: [Vec3; 3],
+    material: Spanned<String>,
 }
 
-/// Uniform or per-axis scale.
+/// Uniform or per-axis scale, as the file writes it.
 #[derive(Deserialize, Debug, Clone, Copy)]
 #[serde(untagged)]
-pub enum ScaleDef {
+enum ScaleDef {
     Uniform(f32),
     PerAxis(Vec3),
 }
@@ -152,60 +166,38 @@ impl Default for ScaleDef {
     }
 }
 
-/// Which shading normals a mesh gets.
-#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum NormalsDef {
-    /// The file's vertex normals where it has them, else flat.
-    #[default]
-    File,
-    /// Flat shading (geometric normals).
-    Flat,
-    /// Area-weighted averages of the faces around each vertex (smooth
-    /// shading for files without normals).
-    Computed,
-}
-
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
-pub struct MeshDef {
+struct MeshDef {
     /// Mesh file, relative to the scene file (give this or `procedural`).
-    pub file: Option<PathBuf>,
+    file: Option<PathBuf>,
     /// A generated mesh instead of a file, e.g.
     /// `{ kind = "icosphere", level = 6 }`.
-    pub procedural: Option<Procedural>,
-    pub material: Spanned<String>,
-    /// If given, the mesh is first centred at the origin and scaled so the
-    /// largest side of its bounding box is `fit` (meshes come in any units).
-    pub fit: Option<f32>,
+    procedural: Option<Procedural>,
+    material: Spanned<String>,
+    fit: Option<f32>,
     #[serde(default)]
-    pub scale: ScaleDef,
+    scale: ScaleDef,
     #[serde(default)]
-    pub rotate: Vec3,
+    rotate: Vec3,
     #[serde(default)]
-    pub translate: Vec3,
+    translate: Vec3,
     #[serde(default)]
-    pub normals: NormalsDef,
+    normals: Normals,
 }
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
-pub struct LightDef {
-    pub position: Vec3,
+struct LightDef {
+    position: Vec3,
     #[serde(default = "white")]
-    pub color: Color,
+    color: Color,
     #[serde(default = "one")]
-    pub intensity: f32,
+    intensity: f32,
     #[serde(default)]
-    pub falloff: Falloff,
-    /// Used by the Whitted integrator only (a stand-in for an emissive
-    /// surface, which the path tracer samples instead).
+    falloff: Falloff,
     #[serde(default)]
-    pub whitted_only: bool,
-}
-
-fn white() -> Color {
-    Color::ONE
+    whitted_only: bool,
 }
 
 /// Everything that can be overridden from the command line.
@@ -220,16 +212,177 @@ pub struct Overrides {
     pub seed: Option<u64>,
 }
 
+impl Overrides {
+    /// Apply to a description.
+    pub fn apply(&self, d: &mut SceneDescription) {
+        d.width = self.width.unwrap_or(d.width);
+        d.height = self.height.unwrap_or(d.height);
+        let s = &mut d.settings;
+        s.sampler = self.sampler.unwrap_or(s.sampler);
+        s.filter = self.filter.unwrap_or(s.filter);
+        s.max_depth = self.max_depth.unwrap_or(s.max_depth);
+        s.seed = self.seed.unwrap_or(s.seed);
+        d.accel = self.accel.unwrap_or(d.accel);
+    }
+}
+
+/// A scene file read: its path, its text, its description, and where each
+/// entity is in the text.
+#[derive(Clone, Debug)]
+pub struct SceneSource {
+    pub path: PathBuf,
+    pub text: String,
+    pub description: SceneDescription,
+    /// The byte span of each entity's table, by entity.
+    spans: BTreeMap<Entity, Range<usize>>,
+}
+
 /// Load and build a scene from a TOML file.
 pub fn load_scene(path: &Path, overrides: &Overrides) -> Result<Scene, InputError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| InputError::file(path, format!("cannot read scene file: {e}")))?;
-    parse_scene(&text, path, overrides)
+    SceneSource::load(path, overrides)?.build()
 }
 
 /// Build a scene from TOML text; `path` names the file in errors and
 /// anchors relative mesh paths.
 pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Scene, InputError> {
+    SceneSource::parse(text, path, overrides)?.build()
+}
+
+impl SceneSource {
+    /// Read and parse the scene file at `path`, with `overrides` applied.
+    pub fn load(path: &Path, overrides: &Overrides) -> Result<Self, InputError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| InputError::file(path, format!("cannot read scene file: {e}")))?;
+        Self::parse(&text, path, overrides)
+    }
+
+    /// Parse scene text; `path` names the file in errors and anchors
+    /// relative mesh paths. Every number is checked
+    /// ([`SceneDescription::check`]).
+    pub fn parse(text: &str, path: &Path, overrides: &Overrides) -> Result<Self, InputError> {
+        let mut source = parse_description(text, path)?;
+        overrides.apply(&mut source.description);
+        source
+            .description
+            .check()
+            .map_err(|e| source.error(SceneError::Invalid(e)))?;
+        Ok(source)
+    }
+
+    /// The scene this file describes.
+    pub fn build(&self) -> Result<Scene, InputError> {
+        self.build_from(&self.description)
+    }
+
+    /// The scene of `desc`, a description of this file with new values
+    /// (errors placed in this file).
+    pub fn build_from(&self, desc: &SceneDescription) -> Result<Scene, InputError> {
+        Scene::build(desc).map_err(|e| self.error(e))
+    }
+
+    /// An error of this file's scene as an error of the file: at the
+    /// table of the entity it concerns, where it has one.
+    pub fn error(&self, e: SceneError) -> InputError {
+        let at = |entity: Entity, message: String| match self.spans.get(&entity) {
+            Some(span) => {
+                let (l, c) = line_col(&self.text, span.start);
+                InputError::new(&self.path, Place::LineCol(l, c), message)
+            }
+            None => InputError::file(&self.path, message),
+        };
+        match e {
+            SceneError::Invalid(v) => match v.entity {
+                Entity::Camera => InputError::file(&self.path, format!("[camera]: {}", v.message)),
+                Entity::Render => InputError::file(&self.path, format!("[render]: {}", v.message)),
+                other => at(other, v.message),
+            },
+            SceneError::Camera(e) => InputError::file(&self.path, format!("[camera]: {e}")),
+            SceneError::Memory(e) => InputError::file(&self.path, e.to_string()),
+            SceneError::Accel(e) => InputError::file(&self.path, format!("accelerator: {e}")),
+        }
+    }
+
+    /// This file's text with the values of `targets` taken from `desc` (a
+    /// description of this file with new values): each field written
+    /// whole, other fields and defaults as they are written (defaults of
+    /// the fields written are written out). Comments are not kept.
+    pub fn text_with(&self, desc: &SceneDescription, targets: &[Target]) -> Result<String, String> {
+        let mut table: toml::Table = toml::from_str(&self.text).map_err(|e| e.to_string())?;
+        let mut done: Vec<Target> = Vec::new();
+        for &t in targets {
+            if done.contains(&t) {
+                continue;
+            }
+            done.push(t);
+            let values = desc.values(t);
+            let num = |v: f32| toml::Value::Float(f64::from(v));
+            let new = match desc.shape_of(t) {
+                Shape::Scalar => num(values[0]),
+                Shape::Vector => toml::Value::Array(values.iter().map(|&v| num(v)).collect()),
+                Shape::Points => {
+                    if matches!(t, Target::Mesh(..)) {
+                        return Err(
+                            "a mesh's vertices live in its mesh file, not in the scene file".into(),
+                        );
+                    }
+                    toml::Value::Array(
+                        values
+                            .chunks(3)
+                            .map(|c| toml::Value::Array(c.iter().map(|&v| num(v)).collect()))
+                            .collect(),
+                    )
+                }
+            };
+            self.section(&mut table, t.entity())?
+                .insert(t.key().to_string(), new);
+        }
+        toml::to_string(&table).map_err(|e| e.to_string())
+    }
+
+    /// The TOML table of `entity` in the file's document.
+    fn section<'t>(
+        &self,
+        table: &'t mut toml::Table,
+        entity: Entity,
+    ) -> Result<&'t mut toml::Table, String> {
+        let missing = |what: &str| format!("the scene file has no {what}");
+        let array = |key: &str, i: u32, table: &'t mut toml::Table| {
+            table
+                .get_mut(key)
+                .and_then(|a| a.get_mut(i as usize))
+                .and_then(|v| v.as_table_mut())
+                .ok_or_else(|| missing(&format!("{key}[{i}]")))
+        };
+        match entity {
+            Entity::Camera => table
+                .get_mut("camera")
+                .and_then(|v| v.as_table_mut())
+                .ok_or_else(|| missing("[camera]")),
+            Entity::Render => table
+                .entry("render")
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                .as_table_mut()
+                .ok_or_else(|| missing("[render] table")),
+            Entity::Material(i) => {
+                let name = &self.description.materials[i as usize].name;
+                table
+                    .get_mut("materials")
+                    .and_then(|m| m.get_mut(name.as_str()))
+                    .and_then(|v| v.as_table_mut())
+                    .ok_or_else(|| missing(&format!("[materials.{name}]")))
+            }
+            Entity::Sphere(i) => array("sphere", i, table),
+            Entity::Ellipsoid(i) => array("ellipsoid", i, table),
+            Entity::Plane(i) => array("plane", i, table),
+            Entity::Triangle(i) => array("triangle", i, table),
+            Entity::Mesh(i) => array("mesh", i, table),
+            Entity::Light(i) => array("light", i, table),
+        }
+    }
+}
+
+/// Parse scene text into its description and the entities' places.
+fn parse_description(text: &str, path: &Path) -> Result<SceneSource, InputError> {
     let at = |span: Range<usize>, msg: String| {
         let (l, c) = line_col(text, span.start);
         InputError::new(path, Place::LineCol(l, c), msg)
@@ -240,220 +393,161 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
         None => InputError::file(path, super::toml_message(text, &e)),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
+    let mut spans = BTreeMap::new();
 
     // Materials by name, in name order.
-    let mut names: BTreeMap<&str, u32> = BTreeMap::new();
     let mut materials = Vec::new();
     for (name, m) in &file.materials {
-        m.get_ref()
-            .validate()
-            .map_err(|msg| at(m.span(), format!("material `{name}`: {msg}")))?;
-        names.insert(name, materials.len() as u32);
-        materials.push(*m.get_ref());
+        spans.insert(Entity::Material(materials.len() as u32), m.span());
+        materials.push(NamedMaterial {
+            name: name.clone(),
+            material: *m.get_ref(),
+        });
     }
     let material = |m: &Spanned<String>| -> Result<u32, InputError> {
-        names.get(m.get_ref().as_str()).copied().ok_or_else(|| {
-            let known: Vec<_> = names.keys().map(|k| format!("`{k}`")).collect();
-            at(
-                m.span(),
-                format!(
-                    "unknown material `{}` (defined: {})",
-                    m.get_ref(),
-                    if known.is_empty() {
-                        "none".into()
-                    } else {
-                        known.join(", ")
-                    }
-                ),
-            )
-        })
-    };
-    let finite = |v: Vec3, what: &str, span: Range<usize>| {
-        if v.is_finite() {
-            Ok(())
-        } else {
-            Err(at(span, format!("`{what}` must be finite, got {v}")))
-        }
+        let name = m.get_ref();
+        materials
+            .iter()
+            .position(|n| &n.name == name)
+            .map(|i| i as u32)
+            .ok_or_else(|| {
+                let known: Vec<_> = materials.iter().map(|k| format!("`{}`", k.name)).collect();
+                at(
+                    m.span(),
+                    format!(
+                        "unknown material `{name}` (defined: {})",
+                        if known.is_empty() {
+                            "none".into()
+                        } else {
+                            known.join(", ")
+                        }
+                    ),
+                )
+            })
     };
 
-    let mut objects = Vec::new();
-    let mut prims = Vec::new();
-    let mut meshes = Vec::new();
-    let mut add_object = |name: String, mat: u32| {
-        objects.push(SceneObject {
-            name,
-            material: mat,
-        });
-        objects.len() as u32 - 1
-    };
-
+    let mut spheres = Vec::new();
     for (i, s) in file.sphere.iter().enumerate() {
-        let (d, span) = (s.get_ref(), s.span());
-        finite(d.center, "center", span.clone())?;
-        if !(d.radius > 0.0 && d.radius.is_finite()) {
-            return Err(at(
-                span,
-                format!("`radius` must be positive, got {}", d.radius),
-            ));
-        }
-        let object = add_object(format!("sphere[{i}]"), material(&d.material)?);
-        prims.push(Primitive {
-            shape: Shape::Sphere(Sphere::new(d.center, d.radius)),
-            object,
+        let d = s.get_ref();
+        spans.insert(Entity::Sphere(i as u32), s.span());
+        spheres.push(SphereDesc {
+            center: d.center,
+            radius: d.radius,
+            material: material(&d.material)?,
         });
     }
+    let mut ellipsoids = Vec::new();
     for (i, e) in file.ellipsoid.iter().enumerate() {
-        let (d, span) = (e.get_ref(), e.span());
-        finite(d.center, "center", span.clone())?;
-        finite(d.rotate, "rotate", span.clone())?;
-        if !(d.radii.is_finite() && d.radii.min_element() > 0.0) {
-            return Err(at(
-                span,
-                format!("`radii` must be positive, got {}", d.radii),
-            ));
-        }
-        let object = add_object(format!("ellipsoid[{i}]"), material(&d.material)?);
-        let rot = rotation_xyz_degrees(d.rotate);
-        prims.push(Primitive {
-            shape: Shape::Ellipsoid(Ellipsoid::new(d.center, d.radii, rot)),
-            object,
+        let d = e.get_ref();
+        spans.insert(Entity::Ellipsoid(i as u32), e.span());
+        ellipsoids.push(EllipsoidDesc {
+            center: d.center,
+            radii: d.radii,
+            rotate: d.rotate,
+            material: material(&d.material)?,
         });
     }
+    let mut planes = Vec::new();
     for (i, p) in file.plane.iter().enumerate() {
-        let (d, span) = (p.get_ref(), p.span());
-        finite(d.point, "point", span.clone())?;
-        if !(d.normal.is_finite() && d.normal.length() > 0.0) {
-            return Err(at(
-                span,
-                format!("`normal` must be a non-zero vector, got {}", d.normal),
-            ));
-        }
-        let object = add_object(format!("plane[{i}]"), material(&d.material)?);
-        prims.push(Primitive {
-            shape: Shape::Plane(Plane::new(d.point, d.normal)),
-            object,
+        let d = p.get_ref();
+        spans.insert(Entity::Plane(i as u32), p.span());
+        planes.push(PlaneDesc {
+            point: d.point,
+            normal: d.normal,
+            material: material(&d.material)?,
         });
     }
+    let mut triangles = Vec::new();
     for (i, t) in file.triangle.iter().enumerate() {
-        let (d, span) = (t.get_ref(), t.span());
-        for v in d.vertices {
-            finite(v, "vertices", span.clone())?;
-        }
-        let object = add_object(format!("triangle[{i}]"), material(&d.material)?);
-        let [a, b, c] = d.vertices;
-        prims.push(Primitive {
-            shape: Shape::Triangle(Triangle::new(a, b, c)),
-            object,
+        let d = t.get_ref();
+        spans.insert(Entity::Triangle(i as u32), t.span());
+        triangles.push(TriangleDesc {
+            vertices: d.vertices,
+            material: material(&d.material)?,
         });
     }
+    let mut meshes = Vec::new();
     for (i, m) in file.mesh.iter().enumerate() {
         let (d, span) = (m.get_ref(), m.span());
-        let mat = material(&d.material)?;
+        spans.insert(Entity::Mesh(i as u32), span.clone());
+        let material = material(&d.material)?;
         let (data, label) = load_mesh(d, base).map_err(|msg| at(span.clone(), msg))?;
-        let transform =
-            MeshTransform::new(d, &data.positions).map_err(|msg| at(span.clone(), msg))?;
-        let object = add_object(format!("mesh[{i}] {label}"), mat);
-        let mesh_index = meshes.len() as u32;
-        let positions: Vec<Vec3> = data.positions.iter().map(|&p| transform.point(p)).collect();
-        let normals = match d.normals {
-            NormalsDef::Flat => Vec::new(),
-            NormalsDef::File => data.normals.iter().map(|&n| transform.normal(n)).collect(),
-            NormalsDef::Computed => vertex_normals(&positions, &data.triangles),
-        };
-        for (face, tri) in data.triangles.iter().enumerate() {
-            let [a, b, c] = tri.map(|k| positions[k as usize]);
-            prims.push(Primitive {
-                shape: Shape::Triangle(Triangle {
-                    p: [a, b, c],
-                    mesh: mesh_index,
-                    face: face as u32,
-                }),
-                object,
-            });
-        }
-        meshes.push(MeshShading {
-            normals,
-            triangles: data.triangles,
+        meshes.push(MeshDesc {
+            label,
+            data: Arc::new(data),
+            fit: d.fit,
+            scale: match d.scale {
+                ScaleDef::Uniform(s) => Scale::Uniform(s),
+                ScaleDef::PerAxis(v) => Scale::PerAxis(v),
+            },
+            rotate: d.rotate,
+            translate: d.translate,
+            normals: d.normals,
+            material,
         });
     }
-
     let mut lights = Vec::new();
-    for l in &file.light {
-        let (d, span) = (l.get_ref(), l.span());
-        finite(d.position, "position", span.clone())?;
-        let radiance = d.color * d.intensity;
-        if !(radiance.is_finite() && radiance.min_element() >= 0.0) {
-            return Err(at(
-                span,
-                "light `color` × `intensity` must be non-negative".into(),
-            ));
-        }
-        lights.push(PointLight {
+    for (i, l) in file.light.iter().enumerate() {
+        let d = l.get_ref();
+        spans.insert(Entity::Light(i as u32), l.span());
+        lights.push(LightDesc {
             position: d.position,
-            radiance,
+            color: d.color,
+            intensity: d.intensity,
             falloff: d.falloff,
             whitted_only: d.whitted_only,
         });
     }
 
     let r = &file.render;
-    let sampler = match overrides.sampler {
-        Some(s) => s,
-        None => Sampler::parse(r.sampler.get_ref()).map_err(|msg| at(r.sampler.span(), msg))?,
-    };
-    let filter = match overrides.filter {
-        Some(f) => f,
-        None => Filter::parse(r.filter.get_ref()).map_err(|msg| at(r.filter.span(), msg))?,
-    };
-    let accel = match overrides.accel {
-        Some(a) => a,
-        None => r
-            .accel
-            .get_ref()
-            .parse()
-            .map_err(|msg| at(r.accel.span(), msg))?,
-    };
-    let settings = RenderSettings {
-        background: r.background,
-        ambient: r.ambient,
-        max_depth: overrides.max_depth.unwrap_or(r.max_depth),
-        min_weight: r.min_weight,
-        max_distance: r.max_distance,
-        sampler,
-        filter,
-        seed: overrides.seed.unwrap_or(r.seed),
-    };
-    if settings.max_distance.is_nan()
-        || settings.max_distance <= 0.0
-        || !settings.min_weight.is_finite()
-    {
-        return Err(InputError::file(
-            path,
-            "[render]: `max_distance` must be positive and `min_weight` finite",
-        ));
-    }
-    let width = overrides.width.unwrap_or(file.image.width);
-    let height = overrides.height.unwrap_or(file.image.height);
+    let sampler = Sampler::parse(r.sampler.get_ref()).map_err(|msg| at(r.sampler.span(), msg))?;
+    let filter = Filter::parse(r.filter.get_ref()).map_err(|msg| at(r.filter.span(), msg))?;
+    let accel = r
+        .accel
+        .get_ref()
+        .parse()
+        .map_err(|msg| at(r.accel.span(), msg))?;
     let c = &file.camera;
-    let aspect = c.aspect.unwrap_or(width as f32 / height.max(1) as f32);
-    let camera = Camera::new(c.eye, c.look_at, c.up, c.fov, aspect, c.near, width, height)
-        .map_err(|e| InputError::file(path, format!("[camera]: {e}")))?;
-    let spp = settings.sampler.spp();
-    let keep_samples = settings.filter != Filter::Box;
-    crate::film::memory::check(
-        || format!("[image]: a {width}×{height} image at {spp} samples per pixel"),
-        crate::film::memory::render_bytes(width, height, spp, keep_samples),
-    )
-    .map_err(|e| InputError::file(path, e.to_string()))?;
-
-    Scene::new(
-        camera, settings, materials, objects, lights, prims, meshes, accel,
-    )
-    .map_err(|e| InputError::file(path, format!("accelerator: {e}")))
+    let description = SceneDescription {
+        width: file.image.width,
+        height: file.image.height,
+        camera: CameraDesc {
+            eye: c.eye,
+            look_at: c.look_at,
+            up: c.up,
+            fov: c.fov,
+            near: c.near,
+            aspect: c.aspect,
+        },
+        settings: RenderSettings {
+            background: r.background,
+            ambient: r.ambient,
+            max_depth: r.max_depth,
+            min_weight: r.min_weight,
+            max_distance: r.max_distance,
+            sampler,
+            filter,
+            seed: r.seed,
+        },
+        accel,
+        materials,
+        spheres,
+        ellipsoids,
+        planes,
+        triangles,
+        meshes,
+        lights,
+    };
+    Ok(SceneSource {
+        path: path.to_path_buf(),
+        text: text.to_string(),
+        description,
+        spans,
+    })
 }
 
 /// The mesh data of a `[[mesh]]` entry and a label for it.
-pub fn load_mesh(d: &MeshDef, base: &Path) -> Result<(MeshData, String), String> {
+fn load_mesh(d: &MeshDef, base: &Path) -> Result<(super::MeshData, String), String> {
     match (&d.file, &d.procedural) {
         (Some(file), None) => {
             let data = super::read_mesh(&base.join(file))
@@ -466,111 +560,4 @@ pub fn load_mesh(d: &MeshDef, base: &Path) -> Result<(MeshData, String), String>
         }
         _ => Err("a mesh needs exactly one of `file` and `procedural`".into()),
     }
-}
-
-/// The object transform of a mesh: optional fit to a box, then scale, rotate
-/// and translate (x' = T·R·S·x).
-struct MeshTransform {
-    linear: Mat3,
-    /// Inverse transpose of `linear`, for normals.
-    normal: Mat3,
-    offset: Vec3,
-}
-
-/// What `fit` needs of a mesh's own positions: the largest extent of their
-/// bounding box and its centre.
-pub fn fit_box(positions: &[Vec3]) -> Result<(f32, Vec3), String> {
-    let (lo, hi) = positions.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), &p| (lo.min(p), hi.max(p)),
-    );
-    let largest = (hi - lo).max_element();
-    if largest.is_nan() || largest <= 0.0 {
-        return Err("cannot `fit` a mesh whose bounding box is a point".into());
-    }
-    Ok((largest, 0.5 * (lo + hi)))
-}
-
-/// A mesh's transform over [`Real`] (the one formula; the loader runs it on
-/// `f32`, the derivative code on dual numbers): `fit` (the target size, with
-/// the mesh's [`fit_box`]), then `scale`, `rotate` (degrees) and
-/// `translate`. Returns the linear part L = R·S, the offset and the normal
-/// map (L⁻ᵀ = R·S⁻¹, S being diagonal and R orthonormal).
-pub fn mesh_affine<R: Real>(
-    scale: V3<R>,
-    rotate: V3<R>,
-    translate: V3<R>,
-    fit: Option<(R, f32, Vec3)>,
-) -> (M3<R>, V3<R>, M3<R>) {
-    let (fit_scale, centre) = match fit {
-        None => (R::one(), V3::zero()),
-        Some((size, largest, centre)) => (size / R::from_f32(largest), V3::from_vec3(centre)),
-    };
-    let s = scale * fit_scale;
-    let rot = M3::rotation_xyz_degrees(rotate);
-    let linear = rot.mul_mat(&M3::diagonal(s));
-    let one = R::one();
-    let normal = rot.mul_mat(&M3::diagonal(V3::new(one / s.x, one / s.y, one / s.z)));
-    (linear, translate - linear.mul_vec(centre), normal)
-}
-
-impl MeshTransform {
-    fn new(d: &MeshDef, positions: &[Vec3]) -> Result<Self, String> {
-        let scale = match d.scale {
-            ScaleDef::Uniform(s) => Vec3::splat(s),
-            ScaleDef::PerAxis(v) => v,
-        };
-        if !(scale.is_finite() && scale.abs().min_element() > 0.0) {
-            return Err(format!("`scale` must be non-zero and finite, got {scale}"));
-        }
-        if !(d.rotate.is_finite() && d.translate.is_finite()) {
-            return Err("`rotate` and `translate` must be finite".into());
-        }
-        let fit = match d.fit {
-            None => None,
-            Some(size) if size > 0.0 && size.is_finite() => {
-                let (largest, centre) = fit_box(positions)?;
-                Some((size, largest, centre))
-            }
-            Some(size) => return Err(format!("`fit` must be positive, got {size}")),
-        };
-        let (linear, offset, normal) =
-            mesh_affine(scale.into(), d.rotate.into(), d.translate.into(), fit);
-        let mat = |m: M3<f32>| {
-            Mat3::from_cols(m.rows[0].into(), m.rows[1].into(), m.rows[2].into()).transpose()
-        };
-        Ok(Self {
-            linear: mat(linear),
-            normal: mat(normal),
-            offset: offset.into(),
-        })
-    }
-
-    fn point(&self, p: Vec3) -> Vec3 {
-        self.linear * p + self.offset
-    }
-
-    fn normal(&self, n: Vec3) -> Vec3 {
-        (self.normal * n).normalize_or_zero()
-    }
-}
-
-/// Area-weighted vertex normals: the sum of the (unnormalised) face normals
-/// around each vertex, normalised.
-pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
-    let mut normals = vec![Vec3::ZERO; positions.len()];
-    for t in triangles {
-        let n: Vec3 = face_area_normal(t.map(|k| V3::from(positions[k as usize]))).into();
-        for &k in t {
-            normals[k as usize] += n;
-        }
-    }
-    normals.iter().map(|n| n.normalize_or_zero()).collect()
-}
-
-/// A face's normal scaled by twice its area, (b − a) × (c − a): the term
-/// of [`vertex_normals`]' sums.
-#[inline]
-pub fn face_area_normal<R: Real>([a, b, c]: [V3<R>; 3]) -> V3<R> {
-    (b - a).cross(c - a)
 }

@@ -5,6 +5,7 @@
 
 pub mod aabb;
 pub mod dual;
+pub mod moments;
 pub mod real;
 pub mod rng;
 pub mod sampling;
@@ -13,6 +14,7 @@ pub mod sampling;
 pub use aabb::slab8_avx2;
 pub use aabb::{slab4, slab4_distances, slab8, Aabb, Planes8, SLAB_EXIT_SCALE};
 pub use dual::Dual;
+pub use moments::Moments;
 pub use real::{RayR, Real, M3, V3};
 pub use rng::{SplitMix64, Words};
 pub use sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle};

@@ -194,6 +194,17 @@ impl<R: Real> V3<R> {
     pub fn normalize(self) -> Self {
         self * (R::one() / self.length())
     }
+    /// [`V3::normalize`], or zero where the length's reciprocal is not a
+    /// positive finite number (glam's `normalize_or_zero`).
+    #[inline(always)]
+    pub fn normalize_or_zero(self) -> Self {
+        let rcp = R::one() / self.length();
+        if rcp.value().is_finite() && rcp.value() > 0.0 {
+            self * rcp
+        } else {
+            Self::zero()
+        }
+    }
     /// Component-wise product (colours).
     #[inline(always)]
     pub fn mul_elem(self, o: Self) -> Self {
@@ -311,12 +322,26 @@ impl<R: Real> M3<R> {
         rz.mul_mat(&ry).mul_mat(&rx)
     }
     /// A constant matrix (no derivatives).
+    #[inline]
     pub fn from_mat3(m: glam::Mat3) -> Self {
         Self::from_rows(
             V3::from_vec3(m.row(0)),
             V3::from_vec3(m.row(1)),
             V3::from_vec3(m.row(2)),
         )
+    }
+}
+
+impl M3<f32> {
+    /// The same matrix as glam's (column-major) type.
+    #[inline]
+    pub fn to_mat3(&self) -> glam::Mat3 {
+        glam::Mat3::from_cols(
+            self.rows[0].into(),
+            self.rows[1].into(),
+            self.rows[2].into(),
+        )
+        .transpose()
     }
 }
 

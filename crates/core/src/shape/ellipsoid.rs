@@ -6,7 +6,7 @@
 
 use super::sphere::{nearest_root, Sphere};
 use super::{Aabb, PrimHit};
-use crate::math::{Mat3, Ray, Vec3};
+use crate::math::{Mat3, Ray, Real, Vec3, M3, V3};
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -19,10 +19,26 @@ pub struct Ellipsoid {
     to_unit: Mat3,
 }
 
+/// The map from world offsets to the unit sphere's coordinates of an
+/// ellipsoid of radii `radii` turned by `rotation`, S⁻¹Rᵀ, over [`Real`]
+/// (the one formula: the `f32` ellipsoid and the derivative code's).
+#[inline]
+pub fn to_unit<R: Real>(radii: V3<R>, rotation: &M3<R>) -> M3<R> {
+    let one = R::one();
+    let inv = V3::new(one / radii.x, one / radii.y, one / radii.z);
+    M3::diagonal(inv).mul_mat(&rotation.transpose())
+}
+
 impl Ellipsoid {
     /// `rotation` must be orthonormal; radii must be positive.
     pub fn new(centre: Vec3, radii: Vec3, rotation: Mat3) -> Self {
-        let to_unit = Mat3::from_diagonal(radii.recip()) * rotation.transpose();
+        let m = to_unit(V3::<f32>::from(radii), &M3::from_mat3(rotation));
+        Self::from_to_unit(centre, m.to_mat3())
+    }
+
+    /// The ellipsoid of centre `centre` whose map to the unit sphere is
+    /// `to_unit` ([`to_unit`]).
+    pub fn from_to_unit(centre: Vec3, to_unit: Mat3) -> Self {
         Self { centre, to_unit }
     }
 

@@ -6,6 +6,7 @@
 
 pub mod arrays;
 pub mod ellipsoid;
+pub mod mesh;
 pub mod plane;
 pub mod smooth;
 pub mod sphere;
@@ -13,6 +14,7 @@ pub mod triangle;
 
 pub use arrays::{PrimArrays, PrimKind, PrimRef, Slot};
 pub use ellipsoid::Ellipsoid;
+pub use mesh::MeshData;
 pub use plane::Plane;
 pub use smooth::{HitR, ShapeR};
 pub use sphere::Sphere;

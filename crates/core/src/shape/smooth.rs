@@ -43,7 +43,38 @@ pub enum ShapeR<R> {
     },
 }
 
+impl ShapeR<f32> {
+    /// The primitive shape of this geometry, for the `f32` scene (a plane's
+    /// normal is taken as the unit vector it already is).
+    pub fn to_shape(&self) -> Shape {
+        let v = Vec3::from;
+        match *self {
+            Self::Sphere { centre, radius } => Shape::Sphere(super::Sphere::new(v(centre), radius)),
+            Self::Ellipsoid { centre, to_unit } => {
+                Shape::Ellipsoid(super::Ellipsoid::from_to_unit(v(centre), to_unit.to_mat3()))
+            }
+            Self::Plane { point, normal } => Shape::Plane(super::Plane {
+                point: v(point),
+                normal: v(normal),
+            }),
+            Self::Triangle { p } => {
+                Shape::Triangle(super::Triangle::new(v(p[0]), v(p[1]), v(p[2])))
+            }
+        }
+    }
+}
+
 impl<R: Real> ShapeR<R> {
+    /// The ellipsoid of centre `centre`, radii `radii` and rotation
+    /// `rotate` (Euler angles in degrees, as the scene files give them).
+    pub fn ellipsoid(centre: V3<R>, radii: V3<R>, rotate: V3<R>) -> Self {
+        let rotation = M3::rotation_xyz_degrees(rotate);
+        Self::Ellipsoid {
+            centre,
+            to_unit: super::ellipsoid::to_unit(radii, &rotation),
+        }
+    }
+
     /// The constant (derivative-free) geometry of `prim`.
     pub fn of(prim: &Primitive) -> Self {
         match &prim.shape {

@@ -6,10 +6,11 @@
 
 use crate::analysis::plot::Heatmap;
 use anyhow::{anyhow, Context, Result};
-use raylab::diff::{self, Comparison, Gradients, Param};
+use raylab::diff::{self, Comparison, GradientRender, Gradients, Renderer};
 use raylab::integrator::IntegratorKind;
 use raylab::io::image::{write_exr_channels, write_film_exr, ChannelData};
 use raylab::io::scene_file::Overrides;
+use raylab::scene::param::ParamId;
 use raylab::stats::NoStats;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -60,7 +61,10 @@ pub struct GradOptions {
 /// One parameter's results.
 #[derive(Clone, Debug)]
 pub struct ParamRow {
-    pub param: Param,
+    pub param: ParamId,
+    /// Its name (`materials.red.color[0]`), and its value in the scene.
+    pub name: String,
+    pub value: f32,
     /// ∂(image mean)/∂p and its standard error.
     pub d_mean: f64,
     pub std_error: f64,
@@ -89,15 +93,14 @@ pub struct GradReport {
 
 impl GradReport {
     pub fn run(opts: &GradOptions) -> Result<Self> {
-        let (text, scene, file) =
-            diff::load(&opts.scene, &opts.overrides).map_err(|e| anyhow!("{e}"))?;
-        let params = diff::resolve_all(&opts.params, &file).map_err(|e| anyhow!("{e}"))?;
-        diff::check_supported(&scene, &opts.integrator).map_err(|e| anyhow!("{e}"))?;
-        let step = |p: &diff::Param, c: FdCheck| c.step.unwrap_or_else(|| diff::default_step(p));
+        let (source, scene) = diff::load(&opts.scene, &opts.overrides)?;
+        let desc = &source.description;
+        let params = diff::resolve_all(&opts.params, desc)?;
+        diff::check_supported(&scene, &opts.integrator)?;
+        let step = |p: ParamId, c: FdCheck| diff::step_for(&source, p, c.step);
         if let Some(c) = opts.check {
-            for p in &params {
-                diff::check_step(&opts.scene, &text, &file, &opts.overrides, p, step(p, c))
-                    .map_err(|e| anyhow!("{e}"))?;
+            for &p in &params {
+                diff::check_step(&source, p, step(p, c))?;
             }
         }
         std::fs::create_dir_all(&opts.out_dir)
@@ -113,53 +116,46 @@ impl GradReport {
 
         let start = Instant::now();
         let watch = super::progress::Watch::start("derivatives", opts.progress);
-        let grads = diff::render_gradients(
-            &scene,
-            &file,
-            &opts.scene,
-            &params,
-            opts.integrator,
-            opts.visibility,
-            opts.threads,
-        )
-        .map_err(|e| anyhow!("{e}"))?;
+        let grads = diff::render_gradients(&GradientRender {
+            scene: &scene,
+            desc,
+            params: &params,
+            integrator: opts.integrator,
+            visibility: opts.visibility,
+            threads: opts.threads,
+        })?;
         drop(watch);
         let gradient_s = start.elapsed().as_secs_f64();
 
         let mut rows = Vec::new();
-        for (i, p) in params.iter().enumerate() {
-            write_param_images(&opts.out_dir, &grads, i)?;
+        let renderer = Renderer {
+            integrator: opts.integrator,
+            threads: opts.threads,
+        };
+        for (i, &p) in params.iter().enumerate() {
+            let name = desc.param_name(p);
+            write_param_images(&opts.out_dir, &grads, &name, i)?;
             let (d_mean, std_error) = grads.image_mean(i);
             let check = match opts.check {
                 None => None,
                 Some(c) => {
                     let h = step(p, c);
-                    let cmp = diff::check_param(
-                        &opts.scene,
-                        &text,
-                        &file,
-                        &opts.overrides,
-                        &scene,
-                        &grads,
-                        i,
-                        h,
-                        opts.integrator,
-                        opts.threads,
-                    )
-                    .map_err(|e| anyhow!("{e}"))?;
+                    let cmp = diff::check_param(&source, &scene, &grads, i, h, renderer)?;
                     let mut map = Heatmap::signed(
-                        format!("AD − FD: {} (h = {:.3e})", p.name, cmp.h),
+                        format!("AD − FD: {name} (h = {:.3e})", cmp.h),
                         &cmp.difference,
                         grads.width,
                         grads.height,
                     );
                     map.value_label = "∂I/∂p, AD minus central difference".into();
-                    map.save(&opts.out_dir.join(format!("{}.fd-diff", p.name)))?;
+                    map.save(&opts.out_dir.join(format!("{name}.fd-diff")))?;
                     Some(cmp)
                 }
             };
             rows.push(ParamRow {
-                param: p.clone(),
+                param: p,
+                value: desc.value(p),
+                name,
                 d_mean,
                 std_error,
                 check,
@@ -184,18 +180,17 @@ impl GradReport {
 
 /// `DIR/<param>.exr` (R, G, B = ∂pixel/∂param, `variance.R/G/B`, `count`)
 /// and `DIR/<param>.png` (+ .svg): the channel mean on a diverging scale.
-fn write_param_images(dir: &Path, g: &Gradients, i: usize) -> Result<()> {
-    let name = &g.params[i].name;
+fn write_param_images(dir: &Path, g: &Gradients, name: &str, i: usize) -> Result<()> {
     let (w, h) = (g.width as usize, g.height as usize);
     let plane =
         |v: &[f32], c: usize| ChannelData::F32(v.iter().skip(c).step_by(3).copied().collect());
     let channels = vec![
-        ("R", plane(&g.mean[i], 0)),
-        ("G", plane(&g.mean[i], 1)),
-        ("B", plane(&g.mean[i], 2)),
-        ("variance.R", plane(&g.variance[i], 0)),
-        ("variance.G", plane(&g.variance[i], 1)),
-        ("variance.B", plane(&g.variance[i], 2)),
+        ("R", plane(&g.planes.mean[i], 0)),
+        ("G", plane(&g.planes.mean[i], 1)),
+        ("B", plane(&g.planes.mean[i], 2)),
+        ("variance.R", plane(&g.planes.variance[i], 0)),
+        ("variance.G", plane(&g.planes.variance[i], 1)),
+        ("variance.B", plane(&g.planes.variance[i], 2)),
         ("count", ChannelData::U32(vec![g.count; w * h])),
     ];
     write_exr_channels(&dir.join(format!("{name}.exr")), w, h, channels)?;
@@ -203,7 +198,8 @@ fn write_param_images(dir: &Path, g: &Gradients, i: usize) -> Result<()> {
     map.value_label = "∂(R+G+B)/3 / ∂p per pixel".into();
     map.save(&dir.join(name))?;
     if g.visibility == diff::Visibility::Full {
-        let (mean, var) = (&g.boundary.mean[i], &g.boundary.variance[i]);
+        let b = &g.boundary.planes;
+        let (mean, var) = (&b.mean[i], &b.variance[i]);
         let channels = vec![
             ("R", plane(mean, 0)),
             ("G", plane(mean, 1)),
@@ -295,7 +291,7 @@ impl fmt::Display for GradReport {
             writeln!(
                 f,
                 "{:<34} {:>11.5} {:>13.5e} {:>11.2e}",
-                r.param.name, r.param.value, r.d_mean, r.std_error
+                r.name, r.value, r.d_mean, r.std_error
             )?;
         }
         if self.rows.iter().any(|r| r.check.is_some()) {
@@ -322,7 +318,7 @@ impl fmt::Display for GradReport {
                     writeln!(
                         f,
                         "{:<34} {:>9.2e} {:>12.5e} {:>12.5e} {:>9.2e} {:>6.1}% {:>8.2e} / {:.2e} / {:.2e} {:>7.1}% / {:.1}%",
-                        r.param.name,
+                        r.name,
                         c.h,
                         c.ad_mean,
                         c.fd_mean,

@@ -171,7 +171,7 @@ impl OptimizeReport {
             .iter()
             .enumerate()
             .map(|(k, p)| ParamOutcome {
-                name: p.param.name.clone(),
+                name: p.name.clone(),
                 start: f64::from(p.start),
                 end: theta[k],
                 truth: truth.as_ref().map(|t| f64::from(t[k])),
@@ -239,8 +239,8 @@ fn csv_header(spec: &Spec, truth: bool) -> String {
     if truth {
         cols.push("max_rel_error".into());
     }
-    cols.extend(spec.params.iter().map(|p| p.param.name.clone()));
-    cols.extend(spec.params.iter().map(|p| format!("grad:{}", p.param.name)));
+    cols.extend(spec.params.iter().map(|p| p.name.clone()));
+    cols.extend(spec.params.iter().map(|p| format!("grad:{}", p.name)));
     cols.join(",") + "\n"
 }
 
@@ -347,7 +347,7 @@ fn draw_figures(
         };
         params
             .series
-            .push(Series::new(p.param.name.clone(), points, style));
+            .push(Series::new(p.name.clone(), points, style));
     }
     params.save(&dir.join("params"))?;
 

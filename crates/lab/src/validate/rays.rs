@@ -4,7 +4,7 @@
 //! exactly at edges and vertices, and grazing rays. Every set is a pure
 //! function of the geometry and a seed.
 
-use raylab::camera::Camera;
+use raylab::camera::{Camera, CameraDesc};
 use raylab::math::Aabb;
 use raylab::math::{Ray, SplitMix64, Vec3};
 use raylab::shape::{Primitive, Shape};
@@ -190,7 +190,15 @@ pub fn camera(g: &Geometry, n: usize, seed: u64) -> Vec<Ray> {
         None => {
             let c = g.bounds.centre();
             let eye = c + 2.0 * g.radius().max(1e-3) * Vec3::new(0.6, 0.5, 0.8).normalize();
-            own = Camera::new(eye, c, Vec3::Y, 60.0, 1.0, 1.0, side, side)
+            let desc = CameraDesc {
+                eye,
+                look_at: c,
+                up: Vec3::Y,
+                fov: 60.0,
+                near: 1.0,
+                aspect: Some(1.0),
+            };
+            own = Camera::new(&desc, side, side)
                 .expect("a camera from a diagonal direction to a distinct point is valid");
             &own
         }

@@ -133,11 +133,13 @@ pub mod pick;
 pub(crate) mod sums;
 pub mod vertex;
 
-use super::params::{Entity, Param};
+use super::params::{is_camera, is_geometric};
+use super::planes::Planes;
 use super::view::DualScene;
 use crate::camera::Frame;
 use crate::integrator::{in_pool, IntegratorKind};
 use crate::math::{Dual, Real, SplitMix64, V3};
+use crate::scene::param::ParamId;
 use crate::scene::View;
 use crate::shape::{Shape, ShapeR};
 use curved::{curved_jobs, sample_curved};
@@ -147,7 +149,7 @@ use meeting::{meeting, meeting_band, meeting_pairs};
 use mirror::{mirrors, Mirror};
 use rayon::prelude::*;
 use std::time::Instant;
-use sums::{grazing, jump, landed, offset_by, PixelResult, PixelSums};
+use sums::{grazing, jump, landed, offset_by, CurveResult, SparseSums};
 
 /// Distance in pixels from the curve at which f⁺ and f⁻ are evaluated:
 /// far enough above `f32` round-off of film positions (about 10⁻⁵ px) and
@@ -231,67 +233,33 @@ impl BoundaryStats {
     }
 }
 
-/// The boundary term of each pixel's derivative for some parameters.
+/// The boundary term of each pixel's derivative for some parameters: its
+/// planes hold the estimate and the variance of each pixel's estimate.
 #[derive(Clone, Debug, Default)]
 pub struct Boundary {
-    /// Per parameter, per pixel and channel (row-major, RGB interleaved).
-    pub mean: Vec<Vec<f32>>,
-    /// The same layout: the variance of the pixel's estimate.
-    pub variance: Vec<Vec<f32>>,
-    /// Per parameter, per pixel: the variance of the channel mean's
-    /// estimate.
-    pub variance_grey: Vec<Vec<f32>>,
+    pub planes: Planes,
     pub stats: BoundaryStats,
 }
 
 impl Boundary {
     /// Zero for `n` parameters over a `width` × `height` image.
     pub fn zeros(n: usize, width: u32, height: u32) -> Self {
-        let pixels = width as usize * height as usize;
         Self {
-            mean: vec![vec![0.0; 3 * pixels]; n],
-            variance: vec![vec![0.0; 3 * pixels]; n],
-            variance_grey: vec![vec![0.0; pixels]; n],
+            planes: Planes::zeros(n, width, height),
             stats: BoundaryStats::default(),
         }
     }
 
     /// Another term for the same parameters added in; the stats summed.
     pub fn absorb(&mut self, o: Boundary) {
-        let planes = [
-            (&mut self.mean, o.mean),
-            (&mut self.variance, o.variance),
-            (&mut self.variance_grey, o.variance_grey),
-        ];
-        for (mine, theirs) in planes {
-            for (a, b) in mine.iter_mut().zip(theirs) {
-                for (x, y) in a.iter_mut().zip(b) {
-                    *x += y;
-                }
-            }
-        }
+        self.planes.add_scaled(&o.planes, 1.0);
         self.stats.add(&o.stats);
     }
 
     /// Another pass's parameters after these; the stats summed.
     pub fn extend(&mut self, o: Boundary) {
-        self.mean.extend(o.mean);
-        self.variance.extend(o.variance);
-        self.variance_grey.extend(o.variance_grey);
+        self.planes.extend(o.planes);
         self.stats.add(&o.stats);
-    }
-}
-
-/// Whether `p` can move a silhouette or a shadow edge (a plane moves the
-/// shadows that fall on it; an index of refraction, the edges seen
-/// through glass).
-pub fn is_geometric(p: &Param) -> bool {
-    match p.entity {
-        Entity::Sphere(_) | Entity::Ellipsoid(_) | Entity::Triangle(_) | Entity::Mesh(_) => true,
-        Entity::Camera | Entity::Plane(_) => true,
-        Entity::Light(_) => p.field == "position",
-        Entity::Material(_) => p.field == "ior",
-        Entity::Render => false,
     }
 }
 
@@ -309,16 +277,13 @@ struct Job<const K: usize> {
     samples: u32,
 }
 
-/// What a curve adds ([`PixelResult`]), and the work it took.
-type CurveResult<const K: usize> = (PixelResult<K>, BoundaryStats);
-
 /// The boundary term for `params` (at most K, the parameters seeded in
 /// `view`) with `integrator`, drawing about `density` samples per pixel of
 /// curve length on the film, seeded by `seed`, on `threads` threads. The
 /// result does not depend on the number of threads.
 pub fn boundary_term<const K: usize>(
     view: &DualScene<'_, K>,
-    params: &[Param],
+    params: &[ParamId],
     integrator: &IntegratorKind,
     density: f32,
     seed: u64,
@@ -350,14 +315,9 @@ pub fn boundary_term<const K: usize>(
         }));
         results
     });
-    for (pixels, stats) in results {
-        out.stats.add(&stats);
-        let planes = (
-            &mut out.mean[..],
-            &mut out.variance[..],
-            &mut out.variance_grey[..],
-        );
-        sums::fold_into(pixels, n, planes);
+    for r in results {
+        out.stats.add(&r.stats);
+        r.sums.add_to(&mut out.planes, r.samples);
     }
     out.stats.seconds = start.elapsed().as_secs_f64();
     out
@@ -367,13 +327,13 @@ pub fn boundary_term<const K: usize>(
 /// its number of samples.
 fn collect_curves<const K: usize>(
     view: &DualScene<'_, K>,
-    params: &[Param],
+    params: &[ParamId],
     integrator: &IntegratorKind,
     density: f32,
     stats: &mut BoundaryStats,
 ) -> Vec<Job<K>> {
     let scene = view.scene();
-    let camera = params.iter().any(|p| p.entity == Entity::Camera);
+    let camera = params.iter().any(is_camera);
     let any_object = (0..scene.objects.len() as u32).any(|o| view.moves(o));
     let whitted = matches!(integrator, IntegratorKind::Whitted);
     // Viewpoints: the eye, then the point lights the integrator uses;
@@ -507,7 +467,7 @@ fn sample_curve<const K: usize>(
         ..Default::default()
     };
     let mut rng = SplitMix64(seed);
-    let mut sums = PixelSums::<K>::new(n);
+    let mut sums = SparseSums::<K>::new(n);
     let light = job.light.map(|i| view.point_light(i).0);
     let mirror1 = job.mirror.map(|m| m.value::<Dual<1>>());
     let mirror0 = job.mirror.map(|m| m.value::<f32>());
@@ -664,5 +624,9 @@ fn sample_curve<const K: usize>(
         );
         sums.add(pixel, jump, &speed);
     }
-    (sums.finish(job.samples), stats)
+    CurveResult {
+        sums,
+        samples: job.samples,
+        stats,
+    }
 }

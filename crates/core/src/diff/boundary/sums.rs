@@ -4,37 +4,13 @@
 //! mirrors ([`super::curved`]).
 
 use super::{BoundaryStats, OFFSET_PX};
+use crate::diff::planes::{PixelMoments, Planes, Spread};
 use crate::integrator::{IntegratorKind, SampleContext, Whitted};
 use crate::math::{Ray, RayR, Vec3, V3};
 use crate::scene::{Scene, View};
 use crate::shape::{Hit, ShapeR};
 use crate::stats::NoStats;
 use std::collections::HashMap;
-
-/// Per touched pixel, per parameter: the mean, the variance of the mean
-/// per channel, and that of the channel mean.
-pub(crate) type PixelResult<const K: usize> = Vec<(usize, [[f32; 3]; K], [[f32; 3]; K], [f32; K])>;
-
-/// Per-parameter planes: means and variances (per pixel and channel) and
-/// the grey variances (per pixel).
-pub(crate) type Planes<'a> = (&'a mut [Vec<f32>], &'a mut [Vec<f32>], &'a mut [Vec<f32>]);
-
-/// Add `pixels` (for the first `n` parameters) into `planes`.
-pub(crate) fn fold_into<const K: usize>(
-    pixels: PixelResult<K>,
-    n: usize,
-    (mean, variance, grey): Planes<'_>,
-) {
-    for (pixel, m, var, g) in pixels {
-        for k in 0..n {
-            for c in 0..3 {
-                mean[k][3 * pixel + c] += m[k][c];
-                variance[k][3 * pixel + c] += var[k][c];
-            }
-            grey[k][pixel] += g[k];
-        }
-    }
-}
 
 /// The jump f⁻ − f⁺ across a curve at film point `(x, y)`: the radiance
 /// of the integrator on the camera rays at (x, y) ∓ `offset` (the curve's
@@ -132,38 +108,28 @@ pub(super) fn offset_by((nx, ny): (f32, f32), len: f32, eps: f32) -> (f32, f32) 
     (eps * nx / len, eps * ny / len)
 }
 
-/// One pixel's running sums.
-struct Sums<const K: usize> {
-    s1: [[f64; 3]; K],
-    s2: [[f64; 3]; K],
-    g1: [f64; K],
-    g2: [f64; K],
+/// What one curve's samples add, over how many samples they were drawn,
+/// and the work they took.
+pub(crate) struct CurveResult<const K: usize> {
+    pub sums: SparseSums<K>,
+    pub samples: u32,
+    pub stats: BoundaryStats,
 }
 
 /// The running sums of one curve's samples (or of one sphere's rim
 /// samples, [`crate::diff::rim`]), per touched pixel, for the first `n` of
 /// the K parameters.
-pub(crate) struct PixelSums<const K: usize> {
+pub(crate) struct SparseSums<const K: usize> {
     n: usize,
-    sums: HashMap<usize, Sums<K>>,
+    sums: HashMap<usize, PixelMoments<K>>,
 }
 
-impl<const K: usize> PixelSums<K> {
+impl<const K: usize> SparseSums<K> {
     pub fn new(n: usize) -> Self {
         Self {
             n,
             sums: HashMap::new(),
         }
-    }
-
-    /// The sums of `pixel`, zero when new.
-    fn at(&mut self, pixel: usize) -> &mut Sums<K> {
-        self.sums.entry(pixel).or_insert(Sums {
-            s1: [[0.0; 3]; K],
-            s2: [[0.0; 3]; K],
-            g1: [0.0; K],
-            g2: [0.0; K],
-        })
     }
 
     /// A sample in `pixel`: its jump times the curve's normal speed per
@@ -179,58 +145,22 @@ impl<const K: usize> PixelSums<K> {
     /// A sample in `pixel` with value `values[k]` (per channel, already
     /// over the sample's density) for parameter k.
     pub fn add_values(&mut self, pixel: usize, values: &[[f64; 3]]) {
-        let e = self.at(pixel);
-        for (k, v) in values.iter().enumerate() {
-            for (c, &g) in v.iter().enumerate() {
-                e.s1[k][c] += g;
-                e.s2[k][c] += g * g;
-            }
-            let g = (v[0] + v[1] + v[2]) / 3.0;
-            e.g1[k] += g;
-            e.g2[k] += g * g;
-        }
+        self.sums.entry(pixel).or_default().add(values);
     }
 
     /// The samples of `other` (the same curve's, drawn elsewhere) added in.
     pub fn merge(&mut self, other: Self) {
         for (pixel, o) in other.sums {
-            let e = self.at(pixel);
-            for k in 0..K {
-                for c in 0..3 {
-                    e.s1[k][c] += o.s1[k][c];
-                    e.s2[k][c] += o.s2[k][c];
-                }
-                e.g1[k] += o.g1[k];
-                e.g2[k] += o.g2[k];
-            }
+            self.sums.entry(pixel).or_default().merge(&o);
         }
     }
 
-    /// Each pixel's estimate, the mean over all `samples` of the curve
-    /// (those that landed elsewhere count as 0), with the variance of a
-    /// mean; sorted by pixel.
-    pub fn finish(self, samples: u32) -> PixelResult<K> {
-        let m = f64::from(samples);
-        let var = |s1: f64, s2: f64| ((s2 - s1 * s1 / m) / (m * (m - 1.0))).max(0.0) as f32;
-        let n = self.n;
-        let mut pixels: Vec<_> = self
-            .sums
-            .into_iter()
-            .map(|(pixel, e)| {
-                let mut mean = [[0.0f32; 3]; K];
-                let mut variance = [[0.0f32; 3]; K];
-                let mut grey = [0.0f32; K];
-                for k in 0..n {
-                    for c in 0..3 {
-                        mean[k][c] = (e.s1[k][c] / m) as f32;
-                        variance[k][c] = var(e.s1[k][c], e.s2[k][c]);
-                    }
-                    grey[k] = var(e.g1[k], e.g2[k]);
-                }
-                (pixel, mean, variance, grey)
-            })
-            .collect();
-        pixels.sort_unstable_by_key(|p| p.0);
-        pixels
+    /// Each touched pixel's estimate, the mean over all `samples` of the
+    /// curve (those that landed elsewhere count as 0), with the variance
+    /// of that mean, added to `planes`.
+    pub fn add_to(&self, planes: &mut Planes, samples: u32) {
+        for (&pixel, m) in &self.sums {
+            planes.add_pixel(pixel, self.n, m, f64::from(samples), Spread::Mean);
+        }
     }
 }

@@ -85,12 +85,14 @@ use super::area;
 use super::curves::{edge_matters, mesh_edges, smooth_silhouette, Curve, Edge};
 use super::meeting::{meeting_band, meeting_pairs};
 use super::pick::{build, candidates, Pick};
-use super::{behind, is_geometric, shadow_point, Boundary, BoundaryStats};
-use crate::diff::params::Param;
+use super::{behind, shadow_point, Boundary, BoundaryStats};
+use crate::diff::params::is_geometric;
+use crate::diff::planes::{PixelMoments, Spread};
 use crate::diff::view::DualScene;
 use crate::integrator::path::{NoEnd, PathTracer, Vertex};
 use crate::integrator::{in_pool, SampleContext};
 use crate::math::{orthonormal_basis_r, Dual, Real, SplitMix64, Vec3, V3};
+use crate::scene::param::ParamId;
 use crate::scene::View;
 use crate::shape::{HitR, ShapeR};
 use crate::stats::NoStats;
@@ -119,16 +121,12 @@ fn moves<const K: usize>(p: &V3<Dual<K>>) -> bool {
         .any(|c| c.d.iter().any(|&d| d != 0.0))
 }
 
-/// One pixel's sums per parameter: Σg and Σg² per channel, and the same
-/// for the channel mean.
-type Sums = ([f64; 3], [f64; 3], f64, f64);
-
 /// The secondary boundary term of the path tracer `tracer` (`direct` or
 /// `path:K`) for `params`, `density` paths per pixel, seeded by `seed`, on
 /// `threads` threads (the same on any number).
 pub fn path_term<const K: usize>(
     view: &DualScene<'_, K>,
-    params: &[Param],
+    params: &[ParamId],
     tracer: &PathTracer,
     density: u32,
     seed: u64,
@@ -144,23 +142,22 @@ pub fn path_term<const K: usize>(
     }
     let shared = shared(view);
     let seed = SplitMix64::mix(seed ^ 0x5EC0_ADA1_0000_u64);
-    let rows: Vec<Vec<(Vec<Sums>, BoundaryStats)>> = in_pool(threads, || {
+    let paths = Paths {
+        view,
+        shared: &shared,
+        tracer,
+        n,
+        density,
+        seed,
+    };
+    let rows: Vec<Vec<(PixelMoments<K>, BoundaryStats)>> = in_pool(threads, || {
         (0..h)
             .into_par_iter()
             .map(|py| {
                 (0..w)
                     .map(|px| {
                         let mut stats = BoundaryStats::default();
-                        let sums = pixel(
-                            view,
-                            &shared,
-                            tracer,
-                            (px, py),
-                            n,
-                            density,
-                            seed,
-                            &mut stats,
-                        );
+                        let sums = pixel(&paths, (px, py), &mut stats);
                         (sums, stats)
                     })
                     .collect()
@@ -168,24 +165,10 @@ pub fn path_term<const K: usize>(
             .collect()
     });
     let m = f64::from(density.max(1));
-    let var = |a: f64, b: f64| {
-        if density > 1 {
-            ((b - a * a / m) / (m * (m - 1.0))).max(0.0) as f32
-        } else {
-            0.0
-        }
-    };
     for (py, row) in rows.into_iter().enumerate() {
         for (px, (sums, stats)) in row.into_iter().enumerate() {
             out.stats.add(&stats);
-            let i = py * w + px;
-            for (k, (s1, s2, g1, g2)) in sums.into_iter().enumerate() {
-                for c in 0..3 {
-                    out.mean[k][3 * i + c] = (s1[c] / m) as f32;
-                    out.variance[k][3 * i + c] = var(s1[c], s2[c]);
-                }
-                out.variance_grey[k][i] = var(g1, g2);
-            }
+            out.planes.add_pixel(py * w + px, n, &sums, m, Spread::Mean);
         }
     }
     out.stats.seconds = start.elapsed().as_secs_f64();
@@ -225,21 +208,34 @@ fn shared<const K: usize>(view: &DualScene<'_, K>) -> Shared<K> {
     }
 }
 
-/// One pixel's sums over its `density` paths, per parameter.
-#[allow(clippy::too_many_arguments)]
-fn pixel<const K: usize>(
-    view: &DualScene<'_, K>,
-    shared: &Shared<K>,
-    tracer: &PathTracer,
-    (px, py): (usize, usize),
+/// What every pixel's paths share: the view, the curves, the path tracer,
+/// the first `n` of the K parameters, the paths per pixel and the seed.
+struct Paths<'a, const K: usize> {
+    view: &'a DualScene<'a, K>,
+    shared: &'a Shared<K>,
+    tracer: &'a PathTracer,
     n: usize,
     density: u32,
     seed: u64,
+}
+
+/// One pixel's sums over its `density` paths, per parameter.
+fn pixel<const K: usize>(
+    paths: &Paths<'_, K>,
+    (px, py): (usize, usize),
     stats: &mut BoundaryStats,
-) -> Vec<Sums> {
+) -> PixelMoments<K> {
+    let Paths {
+        view,
+        shared,
+        tracer,
+        n,
+        density,
+        seed,
+    } = *paths;
     let scene = view.scene();
     let w = scene.camera.width as usize;
-    let mut sums = vec![([0.0f64; 3], [0.0f64; 3], 0.0f64, 0.0f64); n];
+    let mut sums = PixelMoments::<K>::default();
     let mut rng = SplitMix64(SplitMix64::mix(seed ^ (py * w + px) as u64));
     for index in 0..density {
         stats.paths += 1;
@@ -273,15 +269,7 @@ fn pixel<const K: usize>(
             }
         };
         tracer.trace_visiting(view, &ray, &ctx, &mut NoStats, None::<&NoEnd>, &mut visit);
-        for (s, gk) in sums.iter_mut().zip(&g) {
-            let grey = (gk[0] + gk[1] + gk[2]) / 3.0;
-            for (c, &v) in gk.iter().enumerate() {
-                s.0[c] += v;
-                s.1[c] += v * v;
-            }
-            s.2 += grey;
-            s.3 += grey * grey;
-        }
+        sums.add(&g[..n]);
     }
     sums
 }

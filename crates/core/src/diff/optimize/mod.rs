@@ -45,9 +45,9 @@
 //!
 //! # One iteration
 //!
-//! The scene file's text gets the current parameter values
-//! ([`crate::diff::check::scene_text_with_all`]) and is loaded again; then
-//! two renders with independent seeds: the gradient render (each pixel's
+//! The scene's description gets the current parameter values (through
+//! the parameter table, [`crate::scene::param`]) and the scene is built
+//! again; then two renders with independent seeds: the gradient render (each pixel's
 //! ∂I/∂θ) and the plain render (the image I). The loss of I against the
 //! target T is reported, and its gradient is
 //! ∂L/∂θₖ = Σⱼ ∂ℓ/∂Iⱼ · ∂Iⱼ/∂θₖ over pixels and channels j.
@@ -93,13 +93,13 @@ pub mod spec;
 
 pub use spec::{load_spec, parse_spec, ParamSpec, Spec, Target};
 
-use super::check::scene_text_with_all;
-use super::params::Param;
-use super::render::render_gradients;
+use super::render::{render_gradients, GradientRender};
+use super::DiffError;
 use crate::film::LinearImage;
-use crate::io::scene_file::{parse_scene, SceneFile};
 use crate::math::SplitMix64;
 use crate::sampler::Sampler;
+use crate::scene::description::SceneDescription;
+use crate::scene::param::{ParamId, Target as Field};
 use crate::scene::Scene;
 use crate::stats::NoStats;
 use std::path::Path;
@@ -313,11 +313,9 @@ impl Iteration {
     }
 }
 
-/// A spec made ready to run: the scene file's text, the target image.
+/// A spec made ready to run: the target image.
 pub struct Problem {
     pub spec: Spec,
-    text: String,
-    file: SceneFile,
     /// The target image (read, or rendered from the target values).
     pub target: LinearImage,
     /// Seconds spent making the target (0 for an image).
@@ -336,32 +334,24 @@ const TARGET: u64 = 3;
 const SNAPSHOT: u64 = 4;
 
 impl Problem {
-    /// Read the scene file and make the target (rendering it when the spec
-    /// gives values; `threads` as for a render).
-    pub fn new(spec: Spec, threads: Option<usize>) -> Result<Self, String> {
-        // The text the spec was checked against, not the file read again.
-        let text = spec.scene_text.clone();
-        let file: SceneFile = toml::from_str(&text)
-            .map_err(|e| format!("{}: {}", spec.scene.display(), e.message()))?;
+    /// Make the target (rendering it when the spec gives values; `threads`
+    /// as for a render).
+    pub fn new(spec: Spec, threads: Option<usize>) -> Result<Self, DiffError> {
         let mut problem = Self {
             spec,
-            text,
-            file,
             target: LinearImage::zeros((0, 0, 3)),
             target_seconds: 0.0,
         };
         let start = Instant::now();
         problem.target = match &problem.spec.target {
-            Target::Image(path) => crate::io::image::read_image(path).map_err(|e| e.to_string())?,
+            Target::Image(path) => crate::io::image::read_image(path)?,
             Target::Values { values, sampler } => {
-                let set: Vec<(&Param, f32)> = values.iter().map(|(p, v)| (p, *v)).collect();
-                let text = scene_text_with_all(&problem.text, &problem.file, &set)?;
-                problem.render_text(
-                    &text,
-                    *sampler,
-                    seed_of(problem.spec.seed, 0, TARGET),
-                    threads,
-                )?
+                let mut desc = problem.spec.source.description.clone();
+                for &(p, v) in values {
+                    desc.set_value(p, v);
+                }
+                let seed = seed_of(problem.spec.seed, 0, TARGET);
+                problem.render(desc, *sampler, seed, threads)?
             }
         };
         problem.target_seconds = start.elapsed().as_secs_f64();
@@ -369,11 +359,11 @@ impl Problem {
         let want = (scene.camera.height as usize, scene.camera.width as usize, 3);
         if problem.target.dim() != want {
             let (h, w, _) = problem.target.dim();
-            return Err(format!(
+            return Err(DiffError::Optimize(format!(
                 "the target image is {w}×{h}, the renders {}×{}: set `width` and `height` in \
                  the spec to the image's size",
                 want.1, want.0
-            ));
+            )));
         }
         Ok(problem)
     }
@@ -387,49 +377,72 @@ impl Problem {
             .collect()
     }
 
+    /// The optimised parameters' ids.
+    fn ids(&self) -> Vec<ParamId> {
+        self.spec.params.iter().map(|p| p.param).collect()
+    }
+
+    /// The scene's description with parameters `theta`.
+    fn description_at(&self, theta: &[f64]) -> SceneDescription {
+        let mut desc = self.spec.source.description.clone();
+        for (p, &v) in self.spec.params.iter().zip(theta) {
+            desc.set_value(p.param, v as f32);
+        }
+        desc
+    }
+
     /// The scene file's text with parameters `theta` (comments dropped,
     /// mesh paths as written).
-    pub fn text_at(&self, theta: &[f64]) -> Result<String, String> {
-        let set: Vec<(&Param, f32)> = self
-            .spec
-            .params
-            .iter()
-            .zip(theta)
-            .map(|(p, &v)| (&p.param, v as f32))
-            .collect();
-        scene_text_with_all(&self.text, &self.file, &set)
+    pub fn text_at(&self, theta: &[f64]) -> Result<String, DiffError> {
+        let fields: Vec<Field> = self.spec.params.iter().map(|p| p.param.target).collect();
+        self.spec
+            .source
+            .text_with(&self.description_at(theta), &fields)
+            .map_err(DiffError::Optimize)
     }
 
-    /// The scene with parameters `theta`: its text, the scene and its file.
-    fn scene_at(&self, theta: &[f64]) -> Result<(String, Scene, SceneFile), String> {
-        let text = self.text_at(theta)?;
-        let scene = parse_scene(&text, &self.spec.scene, &self.spec.overrides())
-            .map_err(|e| format!("the scene with the current parameters: {e}"))?;
-        let file: SceneFile = toml::from_str(&text).map_err(|e| e.message().to_string())?;
-        Ok((text, scene, file))
+    /// The scene with parameters `theta`, and its description.
+    fn scene_at(&self, theta: &[f64]) -> Result<(SceneDescription, Scene), DiffError> {
+        let desc = self.description_at(theta);
+        let scene = self.spec.source.build_from(&desc).map_err(|e| {
+            DiffError::Optimize(format!("the scene with the current parameters: {e}"))
+        })?;
+        Ok((desc, scene))
     }
 
-    fn render_text(
+    /// The image of `desc` rendered with `sampler` and `seed`.
+    fn render(
         &self,
-        text: &str,
+        mut desc: SceneDescription,
         sampler: Sampler,
         seed: u64,
         threads: Option<usize>,
-    ) -> Result<LinearImage, String> {
-        let mut overrides = self.spec.overrides();
-        overrides.sampler = Some(sampler);
-        overrides.seed = Some(seed);
-        let scene = parse_scene(text, &self.spec.scene, &overrides).map_err(|e| e.to_string())?;
-        let (film, _) = self.spec.integrator.render::<NoStats>(&scene, threads)?;
+    ) -> Result<LinearImage, DiffError> {
+        desc.settings.sampler = sampler;
+        desc.settings.seed = seed;
+        let scene = self.spec.source.build_from(&desc)?;
+        let (film, _) = self
+            .spec
+            .integrator
+            .render::<NoStats>(&scene, threads)
+            .map_err(DiffError::Render)?;
         Ok(film.box_image())
     }
 
     /// A render with parameters `theta` and the snapshot sampler (the
     /// figures' images).
-    pub fn snapshot(&self, theta: &[f64], threads: Option<usize>) -> Result<LinearImage, String> {
-        let text = self.text_at(theta)?;
+    pub fn snapshot(
+        &self,
+        theta: &[f64],
+        threads: Option<usize>,
+    ) -> Result<LinearImage, DiffError> {
         let seed = seed_of(self.spec.seed, 0, SNAPSHOT);
-        self.render_text(&text, self.spec.snapshot_sampler, seed, threads)
+        self.render(
+            self.description_at(theta),
+            self.spec.snapshot_sampler,
+            seed,
+            threads,
+        )
     }
 
     /// Iteration `i` at `theta`: the loss and its gradient, then the step
@@ -440,34 +453,28 @@ impl Problem {
         theta: &mut [f64],
         optimizer: &mut Optimizer,
         threads: Option<usize>,
-    ) -> Result<Iteration, String> {
+    ) -> Result<Iteration, DiffError> {
         let start = Instant::now();
-        let (_, mut scene, file) = self.scene_at(theta)?;
-        let params: Vec<Param> = self
-            .spec
-            .params
-            .iter()
-            .zip(theta.iter())
-            .map(|(p, &v)| Param {
-                value: v as f32,
-                ..p.param.clone()
-            })
-            .collect();
+        let (desc, mut scene) = self.scene_at(theta)?;
         scene.settings.seed = seed_of(self.spec.seed, u64::from(i), GRADIENT);
-        let grads = render_gradients(
-            &scene,
-            &file,
-            &self.spec.scene,
-            &params,
-            self.spec.integrator,
-            self.spec.visibility,
+        let grads = render_gradients(&GradientRender {
+            scene: &scene,
+            desc: &desc,
+            params: &self.ids(),
+            integrator: self.spec.integrator,
+            visibility: self.spec.visibility,
             threads,
-        )?;
+        })?;
         scene.settings.seed = seed_of(self.spec.seed, u64::from(i), PRIMAL);
         scene.settings.sampler = self.spec.image_sampler;
-        let (film, _) = self.spec.integrator.render::<NoStats>(&scene, threads)?;
+        let (film, _) = self
+            .spec
+            .integrator
+            .render::<NoStats>(&scene, threads)
+            .map_err(DiffError::Render)?;
         let (loss, dl) = self.spec.loss.evaluate(&film.box_image(), &self.target);
         let gradient: Vec<f64> = grads
+            .planes
             .mean
             .iter()
             .map(|d| d.iter().zip(&dl).map(|(&a, &b)| f64::from(a) * b).sum())
@@ -501,10 +508,12 @@ impl Problem {
 
     /// The scene file's text with parameters `theta`, for a file written
     /// in `folder`: relative mesh paths are rewritten to stay valid there.
-    pub fn text_for(&self, theta: &[f64], folder: &Path) -> Result<String, String> {
+    pub fn text_for(&self, theta: &[f64], folder: &Path) -> Result<String, DiffError> {
         let text = self.text_at(theta)?;
-        let mut table: toml::Table = toml::from_str(&text).map_err(|e| e.to_string())?;
-        let from = self.spec.scene.parent().unwrap_or(Path::new(""));
+        let bad = |e: toml::ser::Error| DiffError::Optimize(e.to_string());
+        let mut table: toml::Table =
+            toml::from_str(&text).map_err(|e| DiffError::Optimize(e.to_string()))?;
+        let from = self.spec.source.path.parent().unwrap_or(Path::new(""));
         if let Some(meshes) = table.get_mut("mesh").and_then(|m| m.as_array_mut()) {
             for mesh in meshes {
                 let Some(file) = mesh.get_mut("file") else {
@@ -516,7 +525,7 @@ impl Problem {
                 }
             }
         }
-        toml::to_string(&table).map_err(|e| e.to_string())
+        toml::to_string(&table).map_err(bad)
     }
 }
 

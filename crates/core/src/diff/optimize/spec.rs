@@ -5,12 +5,14 @@
 //! scene file. Every error names the spec file, the line and the column.
 
 use super::{Loss, Method, OptimizerSettings};
-use crate::diff::params::{resolve, Param};
+use crate::diff::params::resolve;
 use crate::diff::{self};
 use crate::integrator::IntegratorKind;
-use crate::io::scene_file::{Overrides, SceneFile};
+use crate::io::scene_file::{Overrides, SceneSource};
 use crate::io::{line_col, InputError, Place};
 use crate::sampler::Sampler;
+use crate::scene::description::SceneDescription;
+use crate::scene::param::{MeshField, ParamId, Target as Field};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::ops::Range;
@@ -89,7 +91,7 @@ pub enum Target {
     /// first iteration: the true values are known, so the parameter error
     /// is reported.
     Values {
-        values: Vec<(Param, f32)>,
+        values: Vec<(ParamId, f32)>,
         sampler: Sampler,
     },
 }
@@ -97,8 +99,10 @@ pub enum Target {
 /// One parameter component to recover.
 #[derive(Clone, Debug)]
 pub struct ParamSpec {
-    /// Its name and place in the scene file (`value`: the scene file's).
-    pub param: Param,
+    /// Which number of the scene it is.
+    pub param: ParamId,
+    /// Its name, as output files and tables call it.
+    pub name: String,
     /// The first iterate.
     pub start: f32,
     /// Bounds the iterates are projected into.
@@ -114,10 +118,11 @@ pub struct Spec {
     /// The spec file.
     pub path: PathBuf,
     pub description: String,
-    /// The scene file (resolved against the spec's folder)…
-    pub scene: PathBuf,
-    /// …and its text as checked.
-    pub scene_text: String,
+    /// The scene file (resolved against the spec's folder), read with the
+    /// run's overrides (size, sampler, box filter): its description is
+    /// what the parameters address, its text what results are written
+    /// into.
+    pub source: SceneSource,
     pub integrator: IntegratorKind,
     /// The gradient's visibility term: `full` (default) or `interior`.
     pub visibility: diff::Visibility,
@@ -141,12 +146,6 @@ pub struct Spec {
 }
 
 impl Spec {
-    /// The scene loader's overrides every render of the run shares (the
-    /// seed and sampler are set per render).
-    pub fn overrides(&self) -> Overrides {
-        run_overrides(self.width, self.height, self.sampler)
-    }
-
     /// The true values of the optimised parameters, when the target is a
     /// render of known values (a parameter the target does not set keeps
     /// the scene file's value).
@@ -160,8 +159,8 @@ impl Spec {
                 .map(|p| {
                     values
                         .iter()
-                        .find(|(q, _)| q.name == p.param.name)
-                        .map_or(p.param.value, |&(_, v)| v)
+                        .find(|(q, _)| *q == p.param)
+                        .map_or(self.source.description.value(p.param), |&(_, v)| v)
                 })
                 .collect(),
         )
@@ -274,15 +273,19 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<Spec, InputError> {
 
     // Parameter names resolve against the scene file.
     let overrides = run_overrides(width, height, sampler);
-    let (scene_text, scene_now, scene_file) = diff::load(&scene, &overrides).map_err(|e| {
+    let (source, scene_now) = diff::load(&scene, &overrides).map_err(|e| {
         at(
             file.scene.span(),
             format!("scene `{}`: {e}", file.scene.get_ref()),
         )
     })?;
-    diff::check_supported(&scene_now, &integrator)
-        .map_err(|e| at(file.integrator.as_ref().map_or(0..0, |s| s.span()), e))?;
-    let params = param_specs(&file.param, &scene_file, &optimizer, &at)?;
+    diff::check_supported(&scene_now, &integrator).map_err(|e| {
+        at(
+            file.integrator.as_ref().map_or(0..0, |s| s.span()),
+            e.to_string(),
+        )
+    })?;
+    let params = param_specs(&file.param, &source.description, &optimizer, &at)?;
     if params.is_empty() {
         return Err(InputError::file(
             path,
@@ -318,7 +321,7 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<Spec, InputError> {
             ))
         }
         (None, Some(values)) => Target::Values {
-            values: target_values(values, &scene_file, &at)?,
+            values: target_values(values, &source.description, &at)?,
             sampler: sampler_of(&target_file.sampler, Sampler::Random { n: 256 })?,
         },
         _ => {
@@ -334,8 +337,7 @@ pub fn parse_spec(text: &str, path: &Path) -> Result<Spec, InputError> {
     Ok(Spec {
         path: path.to_path_buf(),
         description: file.description.trim().to_string(),
-        scene,
-        scene_text,
+        source,
         integrator,
         visibility,
         sampler,
@@ -449,14 +451,28 @@ fn per_component(
 
 fn param_specs(
     blocks: &[Spanned<ParamFile>],
-    scene: &SceneFile,
+    scene: &SceneDescription,
     optimizer: &OptimizerSettings,
     at: &impl Fn(Range<usize>, String) -> InputError,
 ) -> Result<Vec<ParamSpec>, InputError> {
     let mut out: Vec<ParamSpec> = Vec::new();
     for block in blocks {
         let b = block.get_ref();
-        let params = resolve(b.name.get_ref(), scene).map_err(|e| at(b.name.span(), e))?;
+        let params =
+            resolve(b.name.get_ref(), scene).map_err(|e| at(b.name.span(), e.to_string()))?;
+        if params
+            .iter()
+            .any(|p| matches!(p.target, Field::Mesh(_, MeshField::Vertices)))
+        {
+            return Err(at(
+                b.name.span(),
+                format!(
+                    "`{}`: a mesh's vertices live in its mesh file, and `raylab optimize` \
+                     writes its results as scene files",
+                    b.name.get_ref()
+                ),
+            ));
+        }
         let n = params.len();
         let values = |v: &Option<Spanned<toml::Value>>, what: &str, default: f32| match v {
             Some(v) => per_component(v, n, what, at),
@@ -466,7 +482,7 @@ fn param_specs(
         let max = values(&b.max, "max", f32::INFINITY)?;
         let start = match &b.start {
             Some(v) => per_component(v, n, "start", at)?,
-            None => params.iter().map(|p| p.value).collect(),
+            None => params.iter().map(|&p| scene.value(p)).collect(),
         };
         let learning_rate = match &b.learning_rate {
             Some(v) if *v.get_ref() > 0.0 && v.get_ref().is_finite() => *v.get_ref(),
@@ -482,29 +498,31 @@ fn param_specs(
             None => optimizer.learning_rate,
         };
         for (k, param) in params.into_iter().enumerate() {
-            if out.iter().any(|q| q.param.name == param.name) {
+            let name = scene.param_name(param);
+            if out.iter().any(|q| q.param == param) {
                 return Err(at(
                     b.name.span(),
-                    format!("parameter `{}` is named twice", param.name),
+                    format!("parameter `{name}` is named twice"),
                 ));
             }
             if min[k] > max[k] {
                 return Err(at(
                     block.span(),
-                    format!("{}: `min` {} is above `max` {}", param.name, min[k], max[k]),
+                    format!("{name}: `min` {} is above `max` {}", min[k], max[k]),
                 ));
             }
             if !(min[k]..=max[k]).contains(&start[k]) {
                 return Err(at(
                     b.start.as_ref().map_or(block.span(), |s| s.span()),
                     format!(
-                        "{}: the start {} is outside [{}, {}]",
-                        param.name, start[k], min[k], max[k]
+                        "{name}: the start {} is outside [{}, {}]",
+                        start[k], min[k], max[k]
                     ),
                 ));
             }
             out.push(ParamSpec {
                 param,
+                name,
                 start: start[k],
                 min: min[k],
                 max: max[k],
@@ -517,18 +535,18 @@ fn param_specs(
 
 fn target_values(
     values: &BTreeMap<Spanned<String>, Spanned<toml::Value>>,
-    scene: &SceneFile,
+    scene: &SceneDescription,
     at: &impl Fn(Range<usize>, String) -> InputError,
-) -> Result<Vec<(Param, f32)>, InputError> {
-    let mut out: Vec<(Param, f32)> = Vec::new();
+) -> Result<Vec<(ParamId, f32)>, InputError> {
+    let mut out: Vec<(ParamId, f32)> = Vec::new();
     for (name, v) in values {
-        let params = resolve(name.get_ref(), scene).map_err(|e| at(name.span(), e))?;
+        let params = resolve(name.get_ref(), scene).map_err(|e| at(name.span(), e.to_string()))?;
         let numbers = per_component(v, params.len(), name.get_ref(), at)?;
         for (p, x) in params.into_iter().zip(numbers) {
-            if out.iter().any(|(q, _)| q.name == p.name) {
+            if out.iter().any(|(q, _)| *q == p) {
                 return Err(at(
                     name.span(),
-                    format!("target value `{}` is given twice", p.name),
+                    format!("target value `{}` is given twice", scene.param_name(p)),
                 ));
             }
             out.push((p, x));

@@ -23,10 +23,12 @@ use crate::experiment::params::{
 use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
 use raylab::accel::AccelKind;
-use raylab::diff::{self, Param};
+use raylab::diff::{self, GradientRender, Renderer};
 use raylab::integrator::IntegratorKind;
-use raylab::io::scene_file::{Overrides, SceneFile};
+use raylab::io::scene_file::Overrides;
 use raylab::sampler::Sampler;
+use raylab::scene::description::SceneDescription;
+use raylab::scene::param::ParamId;
 use raylab::stats::NoStats;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -248,15 +250,15 @@ pub(super) fn run_overrides(
 
 /// The first `k` components of the scene's material colours, then light
 /// intensities, then light positions: a pool for cost measurements.
-fn pool(file: &SceneFile, k: usize) -> Result<Vec<Param>, String> {
-    let mut names: Vec<String> = file
+fn pool(desc: &SceneDescription, k: usize) -> Result<Vec<ParamId>, String> {
+    let mut names: Vec<String> = desc
         .materials
-        .keys()
-        .map(|m| format!("materials.{m}.color"))
+        .iter()
+        .map(|m| format!("materials.{}.color", m.name))
         .collect();
-    names.extend((0..file.light.len()).map(|i| format!("light[{i}].intensity")));
-    names.extend((0..file.light.len()).map(|i| format!("light[{i}].position")));
-    let all = diff::resolve_all(&names, file)?;
+    names.extend((0..desc.lights.len()).map(|i| format!("light[{i}].intensity")));
+    names.extend((0..desc.lights.len()).map(|i| format!("light[{i}].position")));
+    let all = diff::resolve_all(&names, desc).map_err(|e| e.to_string())?;
     if all.len() < k {
         return Err(format!(
             "the scene has {} material colour, light intensity and position components, \
@@ -308,46 +310,48 @@ impl Study for Gradient {
         ctx: &RunContext<'_>,
     ) -> anyhow::Result<GradientRow> {
         let err = |e: String| anyhow::anyhow!("{}: {e}", cfg.scene.display());
-        let (text, scene, file) =
-            diff::load(&cfg.scene, &cfg.overrides).map_err(anyhow::Error::msg)?;
+        let (source, scene) = diff::load(&cfg.scene, &cfg.overrides)?;
+        let desc = &source.description;
         let params = match &cfg.what {
             What::One(name) => {
-                let p = diff::resolve(name, &file).map_err(err)?;
+                let p = diff::resolve(name, desc).map_err(|e| err(e.to_string()))?;
                 anyhow::ensure!(
                     p.len() == 1,
                     "`param = \"{name}\"` names {} components: name one (e.g. `{}`)",
                     p.len(),
-                    p[0].name
+                    desc.param_name(p[0])
                 );
                 p
             }
-            What::Count(k) => pool(&file, *k).map_err(err)?,
+            What::Count(k) => pool(desc, *k).map_err(err)?,
         };
-        diff::check_supported(&scene, &cfg.integrator).map_err(err)?;
+        diff::check_supported(&scene, &cfg.integrator).map_err(|e| err(e.to_string()))?;
         let set: &StudySettings = &ctx.settings;
         let primal = Timings::measure(set.warmup, set.repeats, || {
             cfg.integrator.render::<NoStats>(&scene, None)
         });
         let mut grads = None;
         let timed = Timings::measure(set.warmup, set.repeats, || {
-            grads = Some(diff::render_gradients(
-                &scene,
-                &file,
-                &cfg.scene,
-                &params,
-                cfg.integrator,
-                diff::Visibility::Interior,
-                None,
-            ));
+            grads = Some(diff::render_gradients(&GradientRender {
+                scene: &scene,
+                desc,
+                params: &params,
+                integrator: cfg.integrator,
+                visibility: diff::Visibility::Interior,
+                threads: None,
+            }));
         });
-        let g = grads.expect("at least one repeat").map_err(err)?;
+        let g = grads
+            .expect("at least one repeat")
+            .map_err(|e| err(e.to_string()))?;
+        let name = desc.param_name(params[0]);
         let (ad_mean, std_error) = g.image_mean(0);
         let mut row = GradientRow {
             param: match &cfg.what {
-                What::One(_) => params[0].name.clone(),
+                What::One(_) => name.clone(),
                 What::Count(k) => format!("{k} parameters"),
             },
-            value: Fixed(f64::from(params[0].value)),
+            value: Fixed(f64::from(desc.value(params[0]))),
             k: params.len(),
             width: g.width,
             height: g.height,
@@ -361,20 +365,13 @@ impl Study for Gradient {
             ..GradientRow::default()
         };
         if cfg.check {
-            let h = cfg.step.unwrap_or_else(|| diff::default_step(&params[0]));
-            let c = diff::check_param(
-                &cfg.scene,
-                &text,
-                &file,
-                &cfg.overrides,
-                &scene,
-                &g,
-                0,
-                h,
-                cfg.integrator,
-                None,
-            )
-            .map_err(err)?;
+            let h = diff::step_for(&source, params[0], cfg.step);
+            let renderer = Renderer {
+                integrator: cfg.integrator,
+                threads: None,
+            };
+            let c = diff::check_param(&source, &scene, &g, 0, h, renderer)
+                .map_err(|e| err(e.to_string()))?;
             row.step = Sci(f64::from(c.h));
             row.fd_mean = Sci(c.fd_mean);
             row.rel_error = Sci(c.mean_rel_error);
@@ -389,15 +386,12 @@ impl Study for Gradient {
             let stem = format!(
                 "{}-{}-{}-{}spp",
                 run.sweep,
-                params[0].name,
+                name,
                 cfg.integrator.name().replace(':', ""),
                 g.count
             );
             let mut map = Heatmap::signed(
-                format!(
-                    "∂I/∂{} ({}, {} spp)",
-                    params[0].name, cfg.integrator, g.count
-                ),
+                format!("∂I/∂{name} ({}, {} spp)", cfg.integrator, g.count),
                 &g.grey(0),
                 g.width,
                 g.height,

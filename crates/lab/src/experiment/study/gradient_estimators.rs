@@ -32,9 +32,10 @@ use crate::experiment::row::{Fixed, Sci, Secs};
 use crate::experiment::sweep::RunPoint;
 use ndarray::Array2;
 use raylab::accel::AccelKind;
-use raylab::diff::{self, Visibility};
+use raylab::diff::{self, GradientRender, Renderer, Visibility};
 use raylab::integrator::IntegratorKind;
 use raylab::io::scene_file::Overrides;
+use raylab::math::Moments;
 use raylab::sampler::Sampler;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -273,40 +274,35 @@ impl Study for GradientEstimators {
         ctx: &RunContext<'_>,
     ) -> anyhow::Result<EstimatorRow> {
         let err = |e: String| anyhow::anyhow!("{}: {e}", cfg.scene.display());
-        let (text, scene, file) = diff::load(&cfg.scene, &cfg.overrides).map_err(err)?;
-        let params = diff::resolve(&cfg.param, &file).map_err(err)?;
+        let (source, scene) = diff::load(&cfg.scene, &cfg.overrides)?;
+        let desc = &source.description;
+        let params = diff::resolve(&cfg.param, desc).map_err(|e| err(e.to_string()))?;
         anyhow::ensure!(
             params.len() == 1,
             "`param = \"{}\"` names {} components: name one (e.g. `{}`)",
             cfg.param,
             params.len(),
-            params[0].name
+            desc.param_name(params[0])
         );
-        let p = &params[0];
-        diff::check_supported(&scene, &cfg.integrator).map_err(err)?;
+        let p = params[0];
+        let param_name = desc.param_name(p);
+        diff::check_supported(&scene, &cfg.integrator).map_err(|e| err(e.to_string()))?;
         let (w, h) = (scene.camera.width, scene.camera.height);
         let spp = scene.settings.sampler.spp();
-        let fd_step = |s: Option<f32>| s.unwrap_or_else(|| diff::default_step(p));
+        let fd_step = |s: Option<f32>| diff::step_for(&source, p, s);
+        let renderer = Renderer {
+            integrator: cfg.integrator,
+            threads: None,
+        };
 
         // One central difference: two renders sharing `seed`, with
         // `sampler` (None: the run's).
         let difference = |sampler: Option<Sampler>, seed: u64, step: f32| {
-            let overrides = Overrides {
-                sampler: sampler.or(cfg.overrides.sampler),
-                seed: Some(seed),
-                ..cfg.overrides.clone()
-            };
-            diff::difference_step(
-                &cfg.scene,
-                &text,
-                &file,
-                &overrides,
-                p,
-                step,
-                cfg.integrator,
-                None,
-            )
-            .map_err(err)
+            let mut moved = source.clone();
+            let settings = &mut moved.description.settings;
+            settings.sampler = sampler.unwrap_or(settings.sampler);
+            settings.seed = seed;
+            diff::difference_step(&moved, p, step, renderer).map_err(|e| err(e.to_string()))
         };
 
         // The reference, once per scene, size, parameter and step.
@@ -315,7 +311,7 @@ impl Study for GradientEstimators {
             "{}|{w}x{h}|{}|{}|{}|{ref_step}|{}",
             cfg.scene.display(),
             cfg.integrator,
-            p.name,
+            param_name,
             cfg.reference_sampler.name(),
             cfg.reference_seeds
         );
@@ -341,7 +337,7 @@ impl Study for GradientEstimators {
 
         // The estimates, one per seed, with per-pixel sums for the map.
         let n = (w * h) as usize;
-        let (mut s1, mut s2) = (vec![0.0f64; n], vec![0.0f64; n]);
+        let mut per_pixel = vec![Moments::default(); n];
         let mut estimates = Vec::new();
         let mut seconds = Vec::new();
         let (mut boundary_s, mut boundary_samples) = (0.0, 0u64);
@@ -353,16 +349,15 @@ impl Study for GradientEstimators {
                 Estimator::Ad(visibility) => {
                     let mut s = scene.clone();
                     s.settings.seed = seed;
-                    let g = diff::render_gradients(
-                        &s,
-                        &file,
-                        &cfg.scene,
-                        std::slice::from_ref(p),
-                        cfg.integrator,
+                    let g = diff::render_gradients(&GradientRender {
+                        scene: &s,
+                        desc,
+                        params: &params,
+                        integrator: cfg.integrator,
                         visibility,
-                        None,
-                    )
-                    .map_err(err)?;
+                        threads: None,
+                    })
+                    .map_err(|e| err(e.to_string()))?;
                     boundary_s += g.boundary.stats.seconds;
                     boundary_samples += g.boundary.stats.samples;
                     (g.image_mean(0).0, g.grey(0))
@@ -381,8 +376,7 @@ impl Study for GradientEstimators {
             estimates.push(mean);
             for (i, &v) in grey.iter().enumerate() {
                 let v = f64::from(v);
-                s1[i] += v;
-                s2[i] += v * v;
+                per_pixel[i].add(v);
             }
         }
         let m = f64::from(cfg.seeds);
@@ -398,7 +392,7 @@ impl Study for GradientEstimators {
             Estimator::Fd => "fd",
         };
         let mut row = EstimatorRow {
-            param: p.name.clone(),
+            param: param_name.clone(),
             estimator: name.into(),
             integrator: cfg.integrator.name(),
             width: w,
@@ -431,13 +425,13 @@ impl Study for GradientEstimators {
         if cfg.images {
             let dir = ctx.out_dir.join("images");
             std::fs::create_dir_all(&dir)?;
-            let stem = format!("{}-{}-{}-{}spp-sd", run.sweep, p.name, name, spp);
+            let stem = format!("{}-{}-{}-{}spp-sd", run.sweep, param_name, name, spp);
             let data = Array2::from_shape_fn((h as usize, w as usize), |(y, x)| {
                 let i = y * w as usize + x;
-                ((s2[i] - s1[i] * s1[i] / m) / (m - 1.0)).max(0.0).sqrt()
+                per_pixel[i].variance(m).sqrt()
             });
             let mut map = Heatmap::new(
-                format!("sd of ∂I/∂{} per pixel: {name}, {spp} spp", p.name),
+                format!("sd of ∂I/∂{param_name} per pixel: {name}, {spp} spp"),
                 data,
             );
             map.palette = Palette::Viridis;

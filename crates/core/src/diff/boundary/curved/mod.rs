@@ -87,13 +87,14 @@
 mod chain;
 mod grid;
 
-use super::sums::{jump, landed, offset, PixelResult, PixelSums};
+use super::sums::{jump, landed, offset, CurveResult, SparseSums};
 use super::{light_moves, BoundaryStats};
 use crate::camera::Frame;
-use crate::diff::params::{Entity, Param};
+use crate::diff::params::is_camera;
 use crate::diff::view::DualScene;
 use crate::integrator::IntegratorKind;
 use crate::math::{Dual, RayR, Real, SplitMix64, V3};
+use crate::scene::param::ParamId;
 use crate::scene::{Scene, View};
 use crate::shape::{HitR, Shape, ShapeR};
 use chain::{chains, leaving, trace, Chain, Trace};
@@ -365,7 +366,7 @@ fn onto_curve(
 /// with about `density` samples per pixel of length.
 pub fn curved_jobs<const K: usize>(
     view: &DualScene<'_, K>,
-    params: &[Param],
+    params: &[ParamId],
     integrator: &IntegratorKind,
     density: f32,
     stats: &mut BoundaryStats,
@@ -374,7 +375,7 @@ pub fn curved_jobs<const K: usize>(
     if !matches!(integrator, IntegratorKind::Whitted) {
         return Vec::new();
     }
-    let camera = params.iter().any(|p| p.entity == Entity::Camera);
+    let camera = params.iter().any(is_camera);
     let any_object = (0..scene.objects.len() as u32).any(|o| view.moves(o));
     let object = |prim: u32| scene.prims[prim as usize].object;
     let prims = |keep: fn(&Shape) -> bool| {
@@ -475,13 +476,13 @@ fn mirror_jobs(
 /// Draw `job.samples` points on a curve seen in a curved mirror and
 /// return what they add to each pixel (the first `n` of the K
 /// parameters), with the work done.
-pub fn sample_curved<const K: usize>(
+pub(crate) fn sample_curved<const K: usize>(
     view: &DualScene<'_, K>,
     job: &CurvedJob,
     n: usize,
     integrator: &IntegratorKind,
     seed: u64,
-) -> (PixelResult<K>, BoundaryStats) {
+) -> CurveResult<K> {
     let scene = view.scene();
     let (w, h) = (scene.camera.width, scene.camera.height);
     let grid = &job.disc;
@@ -498,7 +499,7 @@ pub fn sample_curved<const K: usize>(
     };
     let total = job.ends.last().copied().unwrap_or(0.0);
     let mut rng = SplitMix64(seed);
-    let mut sums = PixelSums::<K>::new(n);
+    let mut sums = SparseSums::<K>::new(n);
     for index in 0..job.samples {
         let pick = rng.next_f32() * total;
         let c = job.ends.partition_point(|&e| e <= pick);
@@ -543,7 +544,11 @@ pub fn sample_curved<const K: usize>(
         let jump = jump(scene, integrator, (x.x, x.y), (ox, oy), &ctx, None);
         sums.add(pixel, jump, &speed);
     }
-    (sums.finish(job.samples), stats)
+    CurveResult {
+        sums,
+        samples: job.samples,
+        stats,
+    }
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 //! "icosphere:LEVEL") and S3's kind of image of it ([`mesh_scene`]).
 
 use crate::experiment::params::FromParam;
-use raylab::camera::Camera;
+use raylab::camera::{Camera, CameraDesc};
 use raylab::io::procedural::{Procedural, MAX_TRIANGLES};
 use raylab::io::scene_file::{parse_scene, Overrides};
 use raylab::math::Vec3;
@@ -157,17 +157,16 @@ pub fn mesh_scene(source: &MeshSource, width: u32, height: u32) -> anyhow::Resul
     let radius = (0.5 * (b.max - b.min).length()).max(1e-3);
     let distance = radius / (0.5 * FOV_DEG.to_radians()).sin();
     let eye = centre + distance * Vec3::new(0.3, 0.35, 1.0).normalize();
-    scene.camera = Camera::new(
+    let desc = CameraDesc {
         eye,
-        centre,
-        Vec3::Y,
-        FOV_DEG,
-        width as f32 / height as f32,
-        1.0,
-        width,
-        height,
-    )
-    .map_err(|e| anyhow::anyhow!("{}: automatic camera: {e}", name.display()))?;
+        look_at: centre,
+        up: Vec3::Y,
+        fov: FOV_DEG,
+        near: 1.0,
+        aspect: None,
+    };
+    scene.camera = Camera::new(&desc, width, height)
+        .map_err(|e| anyhow::anyhow!("{}: automatic camera: {e}", name.display()))?;
     Ok(scene)
 }
 

@@ -1,9 +1,20 @@
 //! A scene ready to render: camera, materials, lights, primitives and the
-//! accelerator built over them. Scenes come from TOML files
-//! ([`crate::io::scene_file`]) or are assembled in code.
+//! accelerator built over them.
+//!
+//! - [`description`]: the scene as its file describes it (what
+//!   [`crate::io::scene_file`] parses a file into, checked);
+//! - [`param`]: the description's continuous numbers as typed parameters;
+//! - [`build`]: the one builder from a description to the numbers a
+//!   renderer reads, over any [`Real`]: [`Scene::build`] makes the `f32`
+//!   scene with it, the derivative code its dual-number view.
+
+pub mod build;
+pub mod description;
+pub mod param;
 
 use crate::accel::{Accel, AccelKind, Accelerator};
-use crate::camera::Camera;
+use crate::camera::{Camera, CameraError};
+use crate::film::memory::MemoryError;
 use crate::film::Filter;
 use crate::light::{AreaLights, AreaSample, AreaSampleR, PointLight};
 use crate::material::{Material, MaterialR};
@@ -11,8 +22,10 @@ use crate::math::{Aabb, RayR, Real, V3};
 use crate::math::{Color, Ray, Vec3};
 use crate::sampler::Sampler;
 use crate::shape::triangle::NO_MESH;
-use crate::shape::{Hit, HitR, PreparedRay, PrimHit, Primitive, Shape};
+use crate::shape::{Hit, HitR, PreparedRay, PrimHit, Primitive, Shape, Triangle};
 use crate::stats::Stats;
+use build::{ObjectR, Plain};
+use description::{InvalidValue, SceneDescription};
 
 /// What the integrators read of a scene, over a [`Real`] scalar `R`.
 ///
@@ -160,23 +173,119 @@ pub struct Scene {
     pub area_lights: AreaLights,
 }
 
+/// Why a scene description could not become a scene.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum SceneError {
+    /// A number out of range ([`SceneDescription::check`]).
+    #[error(transparent)]
+    Invalid(#[from] InvalidValue),
+    /// A camera whose frame degenerates.
+    #[error("[camera]: {0}")]
+    Camera(CameraError),
+    /// A film larger than the machine can hold.
+    #[error(transparent)]
+    Memory(#[from] MemoryError),
+    /// An accelerator that could not be built (Embree's or obvhs's
+    /// message).
+    #[error("accelerator: {0}")]
+    Accel(String),
+}
+
+/// Not `#[from]`: the variant's message already holds the camera's, so
+/// it has no `source` for an error chain to print twice.
+impl From<CameraError> for SceneError {
+    fn from(e: CameraError) -> Self {
+        Self::Camera(e)
+    }
+}
+
 impl Scene {
-    /// Assemble a scene and build its accelerator (which only Embree can
-    /// fail to do: then Embree's message).
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        camera: Camera,
-        settings: RenderSettings,
-        materials: Vec<Material>,
-        objects: Vec<SceneObject>,
-        lights: Vec<PointLight>,
-        prims: Vec<Primitive>,
-        meshes: Vec<MeshShading>,
-        accel: AccelKind,
-    ) -> Result<Self, String> {
+    /// Build the scene `desc` describes, after checking its numbers: the
+    /// film it renders must fit in memory ([`crate::film::memory`]), the
+    /// geometry comes from the one builder ([`build::build`] over `f32`),
+    /// and the accelerator is built over it (which only Embree and obvhs
+    /// can fail to do).
+    pub fn build(desc: &SceneDescription) -> Result<Self, SceneError> {
+        desc.check()?;
+        let (width, height) = (desc.width, desc.height);
+        let settings = desc.settings;
+        let spp = settings.sampler.spp();
+        crate::film::memory::check(
+            || format!("[image]: a {width}×{height} image at {spp} samples per pixel"),
+            crate::film::memory::render_bytes(width, height, spp, settings.filter != Filter::Box),
+        )?;
+        let numbers = build::build(desc, &Plain)?;
+        let camera = Camera::from_frame(&numbers.camera, width, height)?;
+        let materials: Vec<Material> = desc.materials.iter().map(|m| m.material).collect();
+        let lights = desc
+            .lights
+            .iter()
+            .zip(&numbers.lights)
+            .map(|(d, l)| PointLight {
+                position: l.position.into(),
+                radiance: l.radiance.into(),
+                falloff: d.falloff,
+                whitted_only: d.whitted_only,
+            })
+            .collect();
+        let mut objects = Vec::with_capacity(numbers.objects.len());
+        let mut prims = Vec::new();
+        let mut meshes = Vec::new();
+        for (o, (object, material)) in numbers
+            .objects
+            .iter()
+            .zip(desc.object_materials())
+            .enumerate()
+        {
+            let entity = desc.object_entity(o as u32);
+            let o = o as u32;
+            match object.as_ref().expect("the f32 numbers build every object") {
+                ObjectR::Shape(s) => {
+                    objects.push(SceneObject {
+                        name: entity.to_string(),
+                        material,
+                    });
+                    prims.push(Primitive {
+                        shape: s.to_shape(),
+                        object: o,
+                    });
+                }
+                ObjectR::Mesh(m) => {
+                    let param::Entity::Mesh(i) = entity else {
+                        unreachable!("meshes are mesh entities")
+                    };
+                    objects.push(SceneObject {
+                        name: format!("{entity} {}", desc.meshes[i as usize].label),
+                        material,
+                    });
+                    let n = m.data().positions.len() as u32;
+                    let positions: Vec<Vec3> = (0..n).map(|k| m.point(k).into()).collect();
+                    let normals = if m.has_normals() {
+                        (0..n).map(|k| m.normal(k).into()).collect()
+                    } else {
+                        Vec::new()
+                    };
+                    let mesh = meshes.len() as u32;
+                    for (face, tri) in m.data().triangles.iter().enumerate() {
+                        prims.push(Primitive {
+                            shape: Shape::Triangle(Triangle {
+                                p: tri.map(|k| positions[k as usize]),
+                                mesh,
+                                face: face as u32,
+                            }),
+                            object: o,
+                        });
+                    }
+                    meshes.push(MeshShading {
+                        normals,
+                        triangles: m.data().triangles.clone(),
+                    });
+                }
+            }
+        }
         let (bounded, unbounded): (Vec<u32>, Vec<u32>) =
             (0..prims.len() as u32).partition(|&i| prims[i as usize].bounds().is_some());
-        let accel = Accelerator::build(accel, &prims, bounded)?;
+        let accel = Accelerator::build(desc.accel, &prims, bounded).map_err(SceneError::Accel)?;
         let area_lights = AreaLights::build(&prims, |object| {
             materials[objects[object as usize].material as usize].emission
         });
