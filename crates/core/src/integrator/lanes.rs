@@ -55,7 +55,7 @@ use crate::shape::smooth::offset_origin;
 use crate::shape::triangle::NO_MESH;
 use crate::shape::{segment_to, Hit, HitR, PreparedRay, Shape};
 use crate::stats::{RayKind, RenderStats, Stats};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 /// Paths per group: two AVX2 registers of `f32` per quantity.
 pub const LANES: usize = 16;
@@ -323,11 +323,10 @@ fn trace_group_in<S: Stats, A: Accel>(group: &Group<A>, stats: &mut S) -> [Color
         emitted: splat(Color::ZERO),
         value: [background; LANES],
     };
-    // Camera rays (`render_pixel` and `PathTracer::trace`).
+    // Camera rays (`SampleContext::camera_ray`, then `PathTracer::trace`'s
+    // first hit).
     for (i, c) in ctx.iter().enumerate().take(n) {
-        let off = scene.settings.sampler.sample(c.px, c.py, c.index, c.seed);
-        let pos = Vec2::new(c.px as f32, c.py as f32) + off;
-        let ray = scene.camera.generate_ray(pos.x, pos.y);
+        let (_, ray) = c.camera_ray(scene);
         stats.ray(RayKind::Camera);
         if let Some(hit) = lanes.intersect(&ray, stats) {
             set(&mut paths.emitted, i, scene.material(&hit).emission.into());
@@ -382,8 +381,8 @@ fn vertex<S: Stats, A: Accel>(
         set(&mut paths.albedo, i, bsdf.albedo);
         if lanes.point_lights {
             // One shadow ray per light, as the scalar loop casts them.
-            let light = point_lights(scene, &hit, stats);
-            add(&mut paths.walk, i, bsdf.reflected(get(&paths.beta, i), light));
+            let light = bsdf.reflected(get(&paths.beta, i), point_lights(scene, &hit, stats));
+            add(&mut paths.walk, i, light);
         }
         if !lanes.avx512 {
             let numbers = vertex_numbers(&ctx[i], bounce);
@@ -545,7 +544,8 @@ fn light_sample<S: Stats, A: Accel>(
         let bsdf = Bsdf {
             albedo: get(&paths.albedo, i),
         };
-        add(&mut paths.walk, i, bsdf.reflected(get(&paths.beta, i), get(&value, i)));
+        let light = bsdf.reflected(get(&paths.beta, i), get(&value, i));
+        add(&mut paths.walk, i, light);
     }
 }
 

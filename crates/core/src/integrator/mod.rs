@@ -42,6 +42,21 @@ pub struct SampleContext {
     pub seed: u64,
 }
 
+impl SampleContext {
+    /// The sample's position on the image plane (the pixel's corner plus
+    /// the scene sampler's offset) and its camera ray: where every render
+    /// loop's samples start ([`render_pixel`], [`lanes`]'s groups).
+    #[inline(always)]
+    pub(crate) fn camera_ray(&self, scene: &Scene) -> (Vec2, Ray) {
+        let off = scene
+            .settings
+            .sampler
+            .sample(self.px, self.py, self.index, self.seed);
+        let pos = Vec2::new(self.px as f32, self.py as f32) + off;
+        (pos, scene.camera.generate_ray(pos.x, pos.y))
+    }
+}
+
 /// An integrator: the colour seen along a camera ray.
 pub trait Integrator: Sync {
     fn radiance<S: Stats>(
@@ -370,15 +385,13 @@ fn render_pixel<I: Integrator, S: Stats>(
     let seed = scene.settings.seed;
     let mut acc = PixelStats::default();
     for index in 0..sampler.spp() {
-        let off = sampler.sample(px, py, index, seed);
-        let pos = Vec2::new(px as f32, py as f32) + off;
-        let ray = scene.camera.generate_ray(pos.x, pos.y);
         let ctx = SampleContext {
             px,
             py,
             index,
             seed,
         };
+        let (pos, ray) = ctx.camera_ray(scene);
         let value = integrator.radiance(scene, &ray, &ctx, stats);
         acc.add(value);
         if let Some(s) = samples.as_deref_mut() {

@@ -113,6 +113,16 @@ struct PathState<R> {
     radiance: V3<R>,
 }
 
+impl<R: Real> PathState<R> {
+    /// Adds `light`, if any, to the light gathered.
+    #[inline(always)]
+    fn gather(&mut self, light: Option<V3<R>>) {
+        if let Some(light) = light {
+            self.radiance += light;
+        }
+    }
+}
+
 /// What stays the same along one sample's path: the sample (whose numbers
 /// key the vertices' random numbers), the counters, and what ends the path
 /// early, if anything.
@@ -241,13 +251,13 @@ impl PathTracer {
         let scene = view.scene();
         let next_ray = RayR::new(hit.spawn_origin(ray.wi), ray.wi);
         sample.stats.ray(RayKind::Path);
-        let next = scene
-            .intersect(&next_ray.value(), scene.settings.max_distance, sample.stats)
-            .map(|found| view.surface(&next_ray, found));
-        if let Some(light) = self.bsdf_ray_light(view, next.as_ref(), ray.wi, ray.pdf, path.beta) {
-            path.radiance += light;
-        }
-        let next = next?;
+        let max = scene.settings.max_distance;
+        let Some(found) = scene.intersect(&next_ray.value(), max, sample.stats) else {
+            path.gather(self.bsdf_ray_light(view, None, ray.wi, ray.pdf, path.beta));
+            return None;
+        };
+        let next = view.surface(&next_ray, found);
+        path.gather(self.bsdf_ray_light(view, Some(&next), ray.wi, ray.pdf, path.beta));
         if let Some(end) = sample.end {
             // The next vertex's light numbers, which it no longer needs.
             let v = VertexNumbers::from(vertex_numbers(sample.ctx, ray.bounce + 1));
@@ -300,7 +310,8 @@ impl PathTracer {
             roulette: u.roulette,
         };
         if let Some(next) = self.follow(view, hit, ray, &mut path, &mut sample) {
-            let rest = self.walk(view, next, from.bounce + 1, path.beta, &mut sample, &mut |_| {});
+            let first = from.bounce + 1;
+            let rest = self.walk(view, next, first, path.beta, &mut sample, &mut |_| {});
             path.radiance += rest;
         }
         path.radiance

@@ -199,7 +199,7 @@ impl PathTracer {
     /// white Lambertian surface reflects it (for
     /// [`Bsdf::reflected`](super::bsdf::Bsdf::reflected));
     /// `None` where no sample is drawn.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn area_light<V: View, S: Stats>(
         &self,
         view: &V,
