@@ -37,22 +37,25 @@
 // Lane loops index several per-lane arrays by the lane.
 #![allow(clippy::needless_range_loop)]
 
-use super::path::{vertex_key, vertex_numbers, LightStrategy, PathTracer, DIMS_PER_VERTEX};
-use super::{in_pool, progress, SampleContext};
+use super::bsdf::Bsdf;
+use super::path::PathTracer;
+use super::vertex::{
+    pick_area_light, point_lights, sees_point_lights, vertex_key, vertex_numbers, VertexNumbers,
+    DIMS_PER_VERTEX,
+};
+use super::{in_pool, render_rows, SampleContext};
 use crate::accel::{Accel, Accelerator};
 use crate::film::{Film, Filter, PixelStats};
 use crate::light::AreaSampleR;
-use crate::lighting::{lambert_area_terms, lambert_point_lights, LightModel};
-use crate::math::{cosine_hemisphere, orthonormal_basis_r, Color, Ray, V3};
+use crate::lighting::lambert_area_terms;
+use crate::math::{Color, Ray, V3};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::shading::cosine_pdf;
 use crate::shape::smooth::offset_origin;
 use crate::shape::triangle::NO_MESH;
 use crate::shape::{segment_to, Hit, HitR, PreparedRay, Shape};
 use crate::stats::{RayKind, RenderStats, Stats};
-use glam::{Vec2, Vec3};
-use rayon::prelude::*;
+use glam::Vec3;
 
 /// Paths per group: two AVX2 registers of `f32` per quantity.
 pub const LANES: usize = 16;
@@ -112,29 +115,14 @@ fn render_with<S: RenderStats, A: Accel>(
         scene,
         accel,
         normals: &normals,
-        point_lights: scene.lights.iter().any(|l| LightModel::Physical.sees(l)),
+        point_lights: sees_point_lights(scene),
         avx512,
     };
     in_pool(threads, || {
-        let cam = &scene.camera;
-        let mut film = Film::new(cam.width, cam.height);
-        progress::announce(u64::from(cam.height));
-        let totals: Vec<S> = film
-            .pixels
-            .par_chunks_mut(cam.width as usize)
-            .enumerate()
-            .with_max_len(1)
-            .map(|(py, row)| {
-                let mut stats = S::default();
-                render_row(&lanes, tracer, py as u32, row, &mut stats);
-                progress::row_done();
-                stats
-            })
-            .collect();
-        let mut total = S::default();
-        for t in totals {
-            total += t;
-        }
+        let mut film = Film::new(scene.camera.width, scene.camera.height);
+        let (total, _) = render_rows(&mut film, |py, row, stats: &mut S| {
+            render_row(&lanes, tracer, py, row, stats)
+        });
         (film, total)
     })
 }
@@ -338,11 +326,10 @@ fn trace_group_in<S: Stats, A: Accel>(group: &Group<A>, stats: &mut S) -> [Color
         emitted: splat(Color::ZERO),
         value: [background; LANES],
     };
-    // Camera rays (`render_pixel` and `PathTracer::trace`).
+    // Camera rays (`SampleContext::camera_ray`, then `PathTracer::trace`'s
+    // first hit).
     for (i, c) in ctx.iter().enumerate().take(n) {
-        let off = scene.settings.sampler.sample(c.px, c.py, c.index, c.seed);
-        let pos = Vec2::new(c.px as f32, c.py as f32) + off;
-        let ray = scene.camera.generate_ray(pos.x, pos.y);
+        let (_, ray) = c.camera_ray(scene);
         stats.ray(RayKind::Camera);
         if let Some(hit) = lanes.intersect(&ray, stats) {
             set(&mut paths.emitted, i, scene.material(&hit).emission.into());
@@ -359,8 +346,15 @@ fn trace_group_in<S: Stats, A: Accel>(group: &Group<A>, stats: &mut S) -> [Color
     paths.value
 }
 
-/// Vertex `bounce` of every live path: its light sample, its BRDF ray and
-/// what that ray finds (the scalar loop's `walk` body and `follow`).
+/// Lane `i`'s numbers of `u` (one array per dimension).
+#[inline(always)]
+fn numbers(u: &[F; DIMS_PER_VERTEX], i: usize) -> VertexNumbers {
+    VertexNumbers::from(std::array::from_fn(|d| u[d][i]))
+}
+
+/// Vertex `bounce` of every live path: [`super::vertex`]'s steps in its
+/// order (the scalar loop's `walk` body and `follow`), each called per
+/// lane.
 #[inline(always)]
 fn vertex<S: Stats, A: Accel>(
     lanes: &Lanes<A>,
@@ -371,7 +365,6 @@ fn vertex<S: Stats, A: Accel>(
     stats: &mut S,
 ) {
     let scene = lanes.scene;
-    let background: V3<f32> = scene.settings.background.into();
     let mut u = [[0.0f32; LANES]; DIMS_PER_VERTEX];
     #[cfg(target_arch = "x86_64")]
     if lanes.avx512 {
@@ -384,18 +377,17 @@ fn vertex<S: Stats, A: Accel>(
         if !paths.alive[i] {
             continue;
         }
-        let hit = &paths.hit[i];
-        let albedo: Color = scene.material(hit).lambert_albedo(hit.point);
-        if albedo == Color::ZERO {
+        let hit = HitR::from(paths.hit[i]);
+        let bsdf = Bsdf::of(scene, &hit);
+        if !bsdf.reflects() {
             paths.end(i);
             continue;
         }
-        set(&mut paths.albedo, i, albedo.into());
+        set(&mut paths.albedo, i, bsdf.albedo);
         if lanes.point_lights {
             // One shadow ray per light, as the scalar loop casts them.
-            let light = lambert_point_lights(scene, &HitR::from(*hit), LightModel::Physical, stats);
-            let c = get(&paths.beta, i) * get(&paths.albedo, i) * light;
-            add(&mut paths.walk, i, c);
+            let light = bsdf.reflected(get(&paths.beta, i), point_lights(scene, &hit, stats));
+            add(&mut paths.walk, i, light);
         }
         if !lanes.avx512 {
             let numbers = vertex_numbers(&ctx[i], bounce);
@@ -405,45 +397,37 @@ fn vertex<S: Stats, A: Accel>(
         }
     }
     let g = Geometry::of(&paths.hit);
-    if tracer.strategy != LightStrategy::BsdfOnly {
+    if tracer.samples_area_lights() {
         light_sample(lanes, tracer, &g, &u, paths, stats);
     }
-    // The cosine-weighted BRDF direction, the frame and the direction over
-    // the lanes (the ended paths' lanes too, whose numbers are defined and
+    // The BSDF sample, the throughput update and the ray's origin over the
+    // lanes (the ended paths' lanes too, whose numbers are defined and
     // whose results are not used: the loop has no branch to stop it
     // becoming SIMD instructions).
-    let mut local: V = [[0.0; LANES]; 3];
-    for i in 0..LANES {
-        set(
-            &mut local,
-            i,
-            cosine_hemisphere(Vec2::new(u[3][i], u[4][i])).into(),
-        );
-    }
     let mut wi: V = [[0.0; LANES]; 3];
     let mut origin: V = [[0.0; LANES]; 3];
     let mut below = [false; LANES];
-    let mut pdf_brdf: F = [0.0; LANES];
+    let mut pdf: F = [0.0; LANES];
     for i in 0..LANES {
-        let n = get(&g.shading, i);
-        let (t, b) = orthonormal_basis_r(n);
-        let l = get(&local, i);
-        let w = (t * l.x + b * l.y + n * l.z).normalize();
-        below[i] = l.z <= 0.0 || get(&g.geometric, i).dot(w) <= 0.0;
-        pdf_brdf[i] = cosine_pdf(l.z);
-        let beta = get(&paths.beta, i) * get(&paths.albedo, i);
+        let bsdf = Bsdf {
+            albedo: get(&paths.albedo, i),
+        };
+        let geometric = get(&g.geometric, i).into();
+        let s = bsdf.sample(get(&g.shading, i), geometric, numbers(&u, i).bsdf);
+        below[i] = s.below;
+        pdf[i] = s.pdf;
+        let beta = s.throughput(get(&paths.beta, i));
         set(&mut paths.beta, i, beta);
-        set(&mut origin, i, g.spawn_origin(i, w));
-        set(&mut wi, i, w);
+        set(&mut origin, i, g.spawn_origin(i, s.wi));
+        set(&mut wi, i, s.wi);
     }
     for i in 0..LANES {
         if !paths.alive[i] {
             continue;
         }
         if below[i] {
-            // The scalar loop's check (a zero cosine, or a direction below
-            // the geometric surface): the path ends there, before β is
-            // multiplied, which no longer matters.
+            // The path ends there, before β is multiplied, which no longer
+            // matters.
             paths.end(i);
             continue;
         }
@@ -451,29 +435,21 @@ fn vertex<S: Stats, A: Accel>(
         let ray = Ray::new(get(&origin, i).into(), dir.into());
         stats.ray(RayKind::Path);
         let beta = get(&paths.beta, i);
-        let Some(next) = lanes.intersect(&ray, stats) else {
-            add(&mut paths.walk, i, beta * background);
+        let next = lanes.intersect(&ray, stats).map(HitR::from);
+        if let Some(light) = tracer.bsdf_ray_light(scene, next.as_ref(), dir, pdf[i], beta) {
+            add(&mut paths.walk, i, light);
+        }
+        let Some(next) = next else {
             paths.end(i);
             continue;
         };
-        let le: V3<f32> = scene.material(&next).emission.into();
-        if le.value() != Color::ZERO {
-            let w = tracer.brdf_hit_weight(scene, &HitR::from(next), le, dir, pdf_brdf[i]);
-            add(&mut paths.walk, i, beta * le * w);
-        }
-        if bounce == tracer.max_bounces {
-            paths.end(i);
-            continue;
-        }
-        if tracer.rr_start.is_some_and(|s| bounce + 1 >= s) {
-            let q = Vec3::from(beta).max_element().min(1.0);
-            if u[5][i] >= q {
-                paths.end(i);
-                continue;
+        match tracer.carry_on(bounce, beta, numbers(&u, i).roulette) {
+            Some(beta) => {
+                set(&mut paths.beta, i, beta);
+                paths.hit[i] = next.hit;
             }
-            set(&mut paths.beta, i, beta / q);
+            None => paths.end(i),
         }
-        paths.hit[i] = next;
     }
 }
 
@@ -507,9 +483,9 @@ impl Geometry {
     }
 }
 
-/// One area-light sample per live path ([`crate::lighting::lambert_area_sample`]
-/// over the lanes): the emitter point per lane, the geometry and weights
-/// over the lanes, the shadow ray per lane.
+/// One area-light sample per live path (the scalar loop's
+/// [`PathTracer::area_light`] over the lanes): the emitter point per lane,
+/// the geometry and weights over the lanes, the shadow ray per lane.
 #[inline(always)]
 fn light_sample<S: Stats, A: Accel>(
     lanes: &Lanes<A>,
@@ -529,10 +505,7 @@ fn light_sample<S: Stats, A: Accel>(
         if !paths.alive[i] {
             continue;
         }
-        if let Some(s) = scene
-            .area_lights
-            .sample(u[0][i], Vec2::new(u[1][i], u[2][i]))
-        {
+        if let Some(s) = pick_area_light(scene, &numbers(u, i)) {
             set(&mut sp, i, s.point.into());
             set(&mut sn, i, s.normal.into());
             set(&mut se, i, s.emission.into());
@@ -540,7 +513,7 @@ fn light_sample<S: Stats, A: Accel>(
             sampled[i] = true;
         }
     }
-    let mis = tracer.strategy == LightStrategy::Mis;
+    let mis = tracer.mis();
     let mut lit = [false; LANES];
     let mut value: V = [[0.0; LANES]; 3];
     let mut shadow_origin: V = [[0.0; LANES]; 3];
@@ -573,8 +546,11 @@ fn light_sample<S: Stats, A: Accel>(
         if lanes.occluded(&shadow, shadow_len[i], stats) {
             continue;
         }
-        let c = get(&paths.beta, i) * get(&paths.albedo, i) * get(&value, i);
-        add(&mut paths.walk, i, c);
+        let bsdf = Bsdf {
+            albedo: get(&paths.albedo, i),
+        };
+        let light = bsdf.reflected(get(&paths.beta, i), get(&value, i));
+        add(&mut paths.walk, i, light);
     }
 }
 
@@ -588,7 +564,7 @@ fn light_sample<S: Stats, A: Accel>(
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
     use super::{vertex_key, SampleContext, F, LANES};
-    use crate::integrator::path::DIMS_PER_VERTEX;
+    use crate::integrator::vertex::DIMS_PER_VERTEX;
     use crate::math::{SplitMix64, Words};
     use std::arch::x86_64::*;
 

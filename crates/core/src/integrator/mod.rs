@@ -12,10 +12,12 @@
 //! per render so every ray runs monomorphised code.
 
 pub mod adaptive;
+pub mod bsdf;
 pub mod floodfill;
 pub mod lanes;
 pub mod path;
 pub mod progress;
+pub mod vertex;
 pub mod whitted;
 
 pub use floodfill::{FloodFillIntegrator, FloodFillSettings};
@@ -40,6 +42,21 @@ pub struct SampleContext {
     pub py: u32,
     pub index: u32,
     pub seed: u64,
+}
+
+impl SampleContext {
+    /// The sample's position on the image plane (the pixel's corner plus
+    /// the scene sampler's offset) and its camera ray: where every render
+    /// loop's samples start ([`render_pixel`], [`lanes`]'s groups).
+    #[inline(always)]
+    pub(crate) fn camera_ray(&self, scene: &Scene) -> (Vec2, Ray) {
+        let off = scene
+            .settings
+            .sampler
+            .sample(self.px, self.py, self.index, self.seed);
+        let pos = Vec2::new(self.px as f32, self.py as f32) + off;
+        (pos, scene.camera.generate_ray(pos.x, pos.y))
+    }
 }
 
 /// An integrator: the colour seen along a camera ray.
@@ -267,18 +284,58 @@ pub(crate) fn in_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + S
     }
 }
 
-/// What one image row produced: its statistics total, each pixel's own
-/// statistics (when asked for) and its samples (when a filter wider than
-/// the box needs them).
+/// The render loop, written once: `row` renders image row `py` into its
+/// pixels, with a statistics sink of its own, in parallel over the rows;
+/// each row is announced to [`progress`] and reported done there. Returns
+/// the sinks' sum and each row's output, in row order. The one-sample
+/// renders ([`render_film`]) and the path tracer's groups
+/// ([`lanes::render`]) run their rows here.
+pub(crate) fn render_rows<S, T>(
+    film: &mut Film,
+    row: impl Fn(u32, &mut [PixelStats], &mut S) -> T + Sync,
+) -> (S, Vec<T>)
+where
+    S: RenderStats,
+    T: Send,
+{
+    progress::announce(u64::from(film.height));
+    let rows: Vec<(S, T)> = film
+        .pixels
+        .par_chunks_mut(film.width as usize)
+        .enumerate()
+        // One row per task: rayon otherwise runs runs of rows that nobody
+        // can steal from once started, and rows differ in cost.
+        .with_max_len(1)
+        .map(|(py, pixels)| {
+            let mut stats = S::default();
+            let out = row(py as u32, pixels, &mut stats);
+            progress::row_done();
+            (stats, out)
+        })
+        .collect();
+    let mut total = S::default();
+    let outputs = rows
+        .into_iter()
+        .map(|(stats, out)| {
+            total += stats;
+            out
+        })
+        .collect();
+    (total, outputs)
+}
+
+/// What one image row of [`render_film`] produced besides its statistics
+/// total: each pixel's own statistics (when asked for) and its samples
+/// (when a filter wider than the box needs them).
 struct RowOutput<S> {
-    total: S,
     per_pixel: Vec<S>,
     samples: Vec<FilmSample>,
 }
 
-/// The render loop: parallel over rows, one sink per row. Returns the film
-/// (filtered if the scene asks for a filter), the totals and, if
-/// `per_pixel`, each pixel's statistics (else an empty vector).
+/// The one-sample renders: [`render_rows`] with [`render_pixel`] along
+/// each row. Returns the film (filtered if the scene asks for a filter),
+/// the totals and, if `per_pixel`, each pixel's statistics (else an empty
+/// vector).
 fn render_film<I, S>(scene: &Scene, integrator: &I, per_pixel: bool) -> (Film, S, Vec<S>)
 where
     I: Integrator,
@@ -297,42 +354,29 @@ where
     let filter = scene.settings.filter;
     let keep_samples = filter != Filter::Box;
     let mut film = Film::new(cam.width, cam.height);
-    progress::announce(u64::from(cam.height));
-    let rows: Vec<RowOutput<S>> = film
-        .pixels
-        .par_chunks_mut(cam.width as usize)
-        .enumerate()
-        // One row per task: rayon otherwise runs runs of rows that nobody
-        // can steal from once started, and rows differ in cost.
-        .with_max_len(1)
-        .map(|(py, row)| {
-            let mut out = RowOutput {
-                total: S::default(),
-                per_pixel: Vec::with_capacity(if per_pixel { row.len() } else { 0 }),
-                samples: Vec::with_capacity(if keep_samples {
-                    row.len() * spp as usize
-                } else {
-                    0
-                }),
-            };
-            for (px, pixel) in row.iter_mut().enumerate() {
-                let mut stats = S::default();
-                let samples = keep_samples.then_some(&mut out.samples);
-                *pixel = render_pixel(scene, integrator, px as u32, py as u32, samples, &mut stats);
-                if per_pixel {
-                    out.per_pixel.push(stats.clone());
-                }
-                out.total += stats;
+    let (total, rows) = render_rows(&mut film, |py, row, row_total: &mut S| {
+        let mut out = RowOutput {
+            per_pixel: Vec::with_capacity(if per_pixel { row.len() } else { 0 }),
+            samples: Vec::with_capacity(if keep_samples {
+                row.len() * spp as usize
+            } else {
+                0
+            }),
+        };
+        for (px, pixel) in row.iter_mut().enumerate() {
+            let mut stats = S::default();
+            let samples = keep_samples.then_some(&mut out.samples);
+            *pixel = render_pixel(scene, integrator, px as u32, py, samples, &mut stats);
+            if per_pixel {
+                out.per_pixel.push(stats.clone());
             }
-            progress::row_done();
-            out
-        })
-        .collect();
-    let mut total = S::default();
+            *row_total += stats;
+        }
+        out
+    });
     let mut pixels = Vec::new();
     let mut samples = Vec::new();
     for row in rows {
-        total += row.total;
         pixels.extend(row.per_pixel);
         samples.extend(row.samples);
     }
@@ -358,15 +402,13 @@ fn render_pixel<I: Integrator, S: Stats>(
     let seed = scene.settings.seed;
     let mut acc = PixelStats::default();
     for index in 0..sampler.spp() {
-        let off = sampler.sample(px, py, index, seed);
-        let pos = Vec2::new(px as f32, py as f32) + off;
-        let ray = scene.camera.generate_ray(pos.x, pos.y);
         let ctx = SampleContext {
             px,
             py,
             index,
             seed,
         };
+        let (pos, ray) = ctx.camera_ray(scene);
         let value = integrator.radiance(scene, &ray, &ctx, stats);
         acc.add(value);
         if let Some(s) = samples.as_deref_mut() {

@@ -35,17 +35,20 @@
 //! L = (ρ/π)·I·falloff(d)·cos θ = ρ·c·i·falloff(d)·cos θ: exactly the
 //! Whitted integrator's diffuse term k_d·C·E·(n·l). Lights flagged
 //! `whitted_only` (stand-ins for an emissive surface) are skipped
-//! ([`crate::lighting`]'s rule, [`LightModel::Physical`]).
+//! ([`crate::lighting`]'s rule, [`LightModel::Physical`](crate::lighting::LightModel::Physical)).
 //!
 //! **Russian roulette.** Once `rr_start` bounces have been taken, a path
 //! continues with probability q = min(1, max channel of the throughput β)
 //! and β is divided by q when it does: E[β'] = q·β/q = β, so the estimator
 //! stays unbiased (Arvo & Kirk 1990).
 //!
-//! **Lanes.** `direct` and `path:K` renders of scenes of triangles run
-//! this estimator over groups of samples in lockstep ([`super::lanes`]),
-//! bit for bit: the functions below are what it calls, per lane or over
-//! the lanes.
+//! **One vertex, two loops.** Each step at a vertex (the BSDF, next-event
+//! estimation, the BSDF sample and throughput update, the emission its ray
+//! finds, Russian roulette) is written once in [`super::vertex`] and
+//! [`super::bsdf`]. This file runs them one sample at a time, over any
+//! [`Real`]; `direct` and `path:K` renders of scenes of triangles run the
+//! same steps over groups of samples in lockstep ([`super::lanes`]), in the
+//! same order, so bit for bit.
 //!
 //! **Random numbers.** Vertex i of sample j of pixel (x, y) draws from a
 //! SplitMix64 stream keyed by (seed, pixel, j, i); its k-th number is
@@ -54,83 +57,14 @@
 //! or not it uses them, so a sample's numbers never depend on thread count,
 //! on the light list, or on what earlier vertices did.
 
+use super::bsdf::Bsdf;
+use super::vertex::{point_lights, vertex_numbers, VertexNumbers};
+pub use super::vertex::{LightStrategy, PathTracer, DEFAULT_RR_START};
 use super::{Integrator, SampleContext};
-use crate::lighting::{lambert_area_sample, lambert_point_lights, LightModel};
-use crate::math::{cosine_hemisphere, orthonormal_basis_r, Color, Ray, RayR, Real, SplitMix64, V3};
+use crate::math::{Color, Ray, RayR, Real, V3};
 use crate::scene::{Scene, View};
-use crate::shading::{area_to_solid_angle, cosine_pdf, power_heuristic};
 use crate::shape::{Hit, HitR};
 use crate::stats::{RayKind, Stats};
-use glam::Vec2;
-
-/// Bounces before Russian roulette starts, by default: the first bounces
-/// carry most of the light, and cutting them early adds variance for
-/// little saved time.
-pub const DEFAULT_RR_START: u32 = 3;
-
-/// How area lights are sampled. [`LightStrategy::Mis`] is what renders use;
-/// the other two exist to check that all three agree in expectation.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum LightStrategy {
-    /// Light sampling and BRDF sampling, combined by the power heuristic.
-    #[default]
-    Mis,
-    /// Light sampling only: emitters that light sampling can reach add
-    /// nothing when a BRDF-sampled ray hits them.
-    LightOnly,
-    /// BRDF sampling only: no shadow rays to area lights (point lights
-    /// still get theirs, being reachable no other way).
-    BsdfOnly,
-}
-
-/// The path tracer's settings (the scene supplies the rest).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct PathTracer {
-    /// Bounces after the camera hit (0 = direct light only; see the module
-    /// docs).
-    pub max_bounces: u32,
-    /// Russian roulette once this many bounces have been taken; `None`
-    /// never (paths run to `max_bounces`).
-    pub rr_start: Option<u32>,
-    pub strategy: LightStrategy,
-}
-
-impl PathTracer {
-    /// Up to `max_bounces` bounces, MIS, Russian roulette after
-    /// [`DEFAULT_RR_START`] bounces.
-    pub fn new(max_bounces: u32) -> Self {
-        Self {
-            max_bounces,
-            rr_start: Some(DEFAULT_RR_START),
-            strategy: LightStrategy::Mis,
-        }
-    }
-}
-
-/// Numbers drawn per vertex (see the module docs).
-pub(crate) const DIMS_PER_VERTEX: usize = 6;
-
-/// The random numbers of vertex `bounce` of the sample `ctx`: the first
-/// [`DIMS_PER_VERTEX`] of the stream [`vertex_key`] keys.
-#[inline]
-pub(crate) fn vertex_numbers(ctx: &SampleContext, bounce: u32) -> [f32; DIMS_PER_VERTEX] {
-    let (seed, pixel, key) = vertex_key(ctx, bounce);
-    let mut rng = SplitMix64(SplitMix64::keyed(seed, pixel, key));
-    std::array::from_fn(|_| rng.next_f32())
-}
-
-/// The key of vertex `bounce`'s stream of the sample `ctx`, as
-/// [`SplitMix64::keyed`]'s (seed, pixel, key): the pixel sampler's keying
-/// with the sample index and the bounce for its key, salted.
-#[inline(always)]
-pub(crate) fn vertex_key(ctx: &SampleContext, bounce: u32) -> (u64, u64, u64) {
-    // A salt keeps these streams apart from the pixel sampler's, which are
-    // keyed by (seed, pixel, sample index) through the same hash.
-    const PATH_SALT: u64 = 0x7061_7468_7472_6163; // "pathtrac"
-    let pixel = (u64::from(ctx.py) << 32) | u64::from(ctx.px);
-    let sample = (u64::from(ctx.index) << 32) | u64::from(bounce);
-    (ctx.seed, pixel, sample ^ PATH_SALT)
-}
 
 impl Integrator for PathTracer {
     fn radiance<S: Stats>(
@@ -172,6 +106,41 @@ pub struct Vertex<'a, R> {
     pub albedo: V3<R>,
 }
 
+/// What a path carries from vertex to vertex: its throughput β and the
+/// light it has gathered.
+struct PathState<R> {
+    beta: V3<R>,
+    radiance: V3<R>,
+}
+
+impl<R: Real> PathState<R> {
+    /// Adds `light`, if any, to the light gathered.
+    #[inline(always)]
+    fn gather(&mut self, light: Option<V3<R>>) {
+        if let Some(light) = light {
+            self.radiance += light;
+        }
+    }
+}
+
+/// What stays the same along one sample's path: the sample (whose numbers
+/// key the vertices' random numbers), the counters, and what ends the path
+/// early, if anything.
+struct PathSample<'a, S, E> {
+    ctx: &'a SampleContext,
+    stats: &'a mut S,
+    end: Option<&'a E>,
+}
+
+/// The BSDF ray of vertex `bounce`: its direction `wi` and density `pdf`,
+/// and the vertex's Russian-roulette number.
+struct BsdfRay<R> {
+    bounce: u32,
+    wi: V3<R>,
+    pdf: R,
+    roulette: f32,
+}
+
 impl PathTracer {
     /// The radiance along a camera ray. With `end`, the path stops at the
     /// first bounce's hit x₂: after the emission found there (MIS-weighted
@@ -210,207 +179,141 @@ impl PathTracer {
         // Emission seen directly has no other strategy to share with.
         let emitted = view.material(found.object).emission;
         let one = V3::splat(V::R::one());
-        emitted + self.walk(view, hit, 0, one, ctx, stats, end, visit)
+        let mut sample = PathSample { ctx, stats, end };
+        emitted + self.walk(view, hit, 0, one, &mut sample, visit)
     }
 
     /// The light the path gathers from vertex `first` at `hit` on, the
     /// throughput there being `beta`: each vertex's light samples and the
-    /// emission its BRDF ray finds, until the path ends.
-    #[allow(clippy::too_many_arguments)]
+    /// emission its BSDF ray finds, until the path ends. The steps are
+    /// [`super::vertex`]'s, in its order.
     fn walk<V: View, S: Stats, E: PathEnd>(
         &self,
         view: &V,
         mut hit: HitR<V::R>,
         first: u32,
-        mut beta: V3<V::R>,
-        ctx: &SampleContext,
-        stats: &mut S,
-        end: Option<&E>,
+        beta: V3<V::R>,
+        sample: &mut PathSample<'_, S, E>,
         visit: &mut impl FnMut(&Vertex<'_, V::R>),
     ) -> V3<V::R> {
-        let scene = view.scene();
-        let mut radiance = V3::zero();
+        let mut path = PathState {
+            beta,
+            radiance: V3::zero(),
+        };
         for bounce in first..=self.max_bounces {
-            let albedo = view.material(hit.hit.object).lambert_albedo(hit.point);
-            if albedo.value() == Color::ZERO {
+            let bsdf = Bsdf::of(view, &hit);
+            if !bsdf.reflects() {
                 break;
             }
             visit(&Vertex {
                 bounce,
                 hit: &hit,
-                beta,
-                albedo,
+                beta: path.beta,
+                albedo: bsdf.albedo,
             });
-            let u = vertex_numbers(ctx, bounce);
-            let n = hit.shading_normal;
-            radiance +=
-                beta * albedo * lambert_point_lights(view, &hit, LightModel::Physical, stats);
-            if self.strategy != LightStrategy::BsdfOnly {
-                if let Some(s) = scene.area_lights.sample(u[0], Vec2::new(u[1], u[2])) {
-                    let mis = self.strategy == LightStrategy::Mis;
-                    let s = view.area_sample(&s);
-                    radiance += beta * albedo * lambert_area_sample(view, &hit, &s, mis, stats);
-                }
+            let u = VertexNumbers::from(vertex_numbers(sample.ctx, bounce));
+            let stats = &mut *sample.stats;
+            path.radiance += bsdf.reflected(path.beta, point_lights(view, &hit, stats));
+            if let Some(light) = self.area_light(view, &hit, &u, stats) {
+                path.radiance += bsdf.reflected(path.beta, light);
             }
-
-            // Cosine-weighted BRDF sample: f·cos θ / p = (ρ/π)·cos θ / (cos θ/π) = ρ.
-            // The direction is built in the frame of the (parameter-
-            // dependent) normal, so for fixed numbers it turns with it.
-            let local = cosine_hemisphere(Vec2::new(u[3], u[4]));
-            let (t, b) = orthonormal_basis_r(n);
-            let l = |c: f32| V::R::from_f32(c);
-            let wi = (t * l(local.x) + b * l(local.y) + n * l(local.z)).normalize();
-            if local.z <= 0.0 || hit.geometric_normal.value().dot(wi.value()) <= 0.0 {
-                // Below the true surface (only with interpolated normals).
+            let s = bsdf.sample(hit.shading_normal, hit.geometric_normal.value(), u.bsdf);
+            if s.below {
                 break;
             }
-            // Its density is fixed by the local direction: cos θ = local.z.
-            let pdf_brdf = cosine_pdf(V::R::from_f32(local.z));
-            beta = beta * albedo;
-            let step = (bounce, u[5], pdf_brdf);
-            match self.follow(
-                view,
-                &hit,
-                wi,
-                step,
-                &mut beta,
-                ctx,
-                stats,
-                end,
-                &mut radiance,
-            ) {
+            path.beta = s.throughput(path.beta);
+            let ray = BsdfRay {
+                bounce,
+                wi: s.wi,
+                pdf: s.pdf,
+                roulette: u.roulette,
+            };
+            match self.follow(view, &hit, ray, &mut path, sample) {
                 Some(next) => hit = next,
                 None => break,
             }
         }
-        radiance
+        path.radiance
     }
 
-    /// The BRDF ray of vertex `bounce` at `hit` along `wi` (density
-    /// `pdf_brdf`; `u_rr` the vertex's Russian-roulette number), `beta`
-    /// already times the vertex's albedo: adds what its hit contributes
-    /// (background, MIS-weighted emission, the `end`'s light) to `radiance`
-    /// and returns the next vertex, or `None` where the path ends.
-    #[allow(clippy::too_many_arguments)]
+    /// The BSDF ray `ray` from `hit` (the path's β already times the
+    /// sample's weight): adds what it brings back (background, MIS-weighted
+    /// emission, the `end`'s light) to the path's light and returns the
+    /// next vertex, or `None` where the path ends.
     fn follow<V: View, S: Stats, E: PathEnd>(
         &self,
         view: &V,
         hit: &HitR<V::R>,
-        wi: V3<V::R>,
-        (bounce, u_rr, pdf_brdf): (u32, f32, V::R),
-        beta: &mut V3<V::R>,
-        ctx: &SampleContext,
-        stats: &mut S,
-        end: Option<&E>,
-        radiance: &mut V3<V::R>,
+        ray: BsdfRay<V::R>,
+        path: &mut PathState<V::R>,
+        sample: &mut PathSample<'_, S, E>,
     ) -> Option<HitR<V::R>> {
         let scene = view.scene();
-        let next_ray = RayR::new(hit.spawn_origin(wi), wi);
-        stats.ray(RayKind::Path);
-        let Some(found) = scene.intersect(&next_ray.value(), scene.settings.max_distance, stats)
-        else {
-            *radiance += *beta * view.background();
+        let next_ray = RayR::new(hit.spawn_origin(ray.wi), ray.wi);
+        sample.stats.ray(RayKind::Path);
+        let max = scene.settings.max_distance;
+        let Some(found) = scene.intersect(&next_ray.value(), max, sample.stats) else {
+            path.gather(self.bsdf_ray_light(view, None, ray.wi, ray.pdf, path.beta));
             return None;
         };
         let next = view.surface(&next_ray, found);
-        let le = view.material(found.object).emission;
-        if le.value() != Color::ZERO {
-            let w = self.brdf_hit_weight(view, &next, le, wi, pdf_brdf);
-            *radiance += *beta * le * w;
-        }
-        if let Some(end) = end {
-            // The next vertex's numbers, which it no longer needs.
-            let v = vertex_numbers(ctx, bounce + 1);
-            let albedo = view.material(found.object).lambert_albedo(next.point);
-            let cached = V3::from_vec3(end.light_at(&found, [v[0], v[1], v[2]]));
-            *radiance += *beta * albedo * cached;
+        path.gather(self.bsdf_ray_light(view, Some(&next), ray.wi, ray.pdf, path.beta));
+        if let Some(end) = sample.end {
+            // The next vertex's light numbers, which it no longer needs.
+            let v = VertexNumbers::from(vertex_numbers(sample.ctx, ray.bounce + 1));
+            let cached = V3::from_vec3(end.light_at(&next.hit, v.light));
+            path.radiance += Bsdf::of(view, &next).reflected(path.beta, cached);
             return None;
         }
-        if bounce == self.max_bounces {
-            return None;
-        }
-        if self.rr_start.is_some_and(|s| bounce + 1 >= s) {
-            // A discrete choice: its probability is a constant of the
-            // estimator, not differentiated.
-            let q = beta.value().max_element().min(1.0);
-            if u_rr >= q {
-                return None;
-            }
-            *beta = *beta / V::R::from_f32(q);
-        }
+        path.beta = self.carry_on(ray.bounce, path.beta, ray.roulette)?;
         Some(next)
     }
     // ANCHOR_END: path_radiance
 
-    /// What the estimator gathers along direction `wi` from vertex `bounce`
-    /// at `hit`, with the sample `ctx`'s own random numbers for everything
-    /// after: the BRDF ray's MIS-weighted emission and every later vertex's
-    /// light, times `beta` (the throughput times the vertex's albedo). This
-    /// is the vertex's integrand over directions (divided by cos θ/π), which
-    /// the boundary term of the gradient render evaluates either side of a
-    /// discontinuity. Zero below the surface.
-    #[allow(clippy::too_many_arguments)]
+    /// What the estimator gathers along direction `wi` from the vertex
+    /// `from`, with the sample `ctx`'s own random numbers for everything
+    /// after: the BSDF ray's MIS-weighted emission and every later vertex's
+    /// light, times the throughput there (β times the vertex's albedo).
+    /// This is the vertex's integrand over directions (divided by cos θ/π),
+    /// which the boundary term of the gradient render evaluates either side
+    /// of a discontinuity. Zero below the surface.
     pub fn continue_along<V: View, S: Stats>(
         &self,
         view: &V,
-        hit: &HitR<V::R>,
+        from: &Vertex<'_, V::R>,
         wi: V3<V::R>,
-        bounce: u32,
-        beta: V3<V::R>,
         ctx: &SampleContext,
         stats: &mut S,
     ) -> V3<V::R> {
-        let mut radiance = V3::zero();
-        let cos = hit.shading_normal.dot(wi);
-        if cos.value() <= 0.0 || hit.geometric_normal.value().dot(wi.value()) <= 0.0 {
-            return radiance;
-        }
-        let u_rr = vertex_numbers(ctx, bounce)[5];
-        let step = (bounce, u_rr, cosine_pdf(cos));
-        let mut beta = beta;
-        let none = None::<&NoEnd>;
-        if let Some(next) = self.follow(
-            view,
-            hit,
-            wi,
-            step,
-            &mut beta,
+        let hit = from.hit;
+        let bsdf = Bsdf {
+            albedo: from.albedo,
+        };
+        let n = hit.shading_normal;
+        let Some(s) = bsdf.sample_towards(n, hit.geometric_normal.value(), wi) else {
+            return V3::zero();
+        };
+        let u = VertexNumbers::from(vertex_numbers(ctx, from.bounce));
+        let mut path = PathState {
+            beta: s.throughput(from.beta),
+            radiance: V3::zero(),
+        };
+        let mut sample = PathSample {
             ctx,
             stats,
-            none,
-            &mut radiance,
-        ) {
-            radiance += self.walk(view, next, bounce + 1, beta, ctx, stats, none, &mut |_| {});
+            end: None::<&NoEnd>,
+        };
+        let ray = BsdfRay {
+            bounce: from.bounce,
+            wi,
+            pdf: s.pdf,
+            roulette: u.roulette,
+        };
+        if let Some(next) = self.follow(view, hit, ray, &mut path, &mut sample) {
+            let first = from.bounce + 1;
+            let rest = self.walk(view, next, first, path.beta, &mut sample, &mut |_| {});
+            path.radiance += rest;
         }
-        radiance
-    }
-
-    /// The weight of emission `le` found at `next` by a BRDF-sampled ray of
-    /// direction `wi` and density `pdf_brdf`.
-    pub(crate) fn brdf_hit_weight<V: View>(
-        &self,
-        view: &V,
-        next: &HitR<V::R>,
-        le: V3<V::R>,
-        wi: V3<V::R>,
-        pdf_brdf: V::R,
-    ) -> V::R {
-        let one = V::R::one();
-        let pdf_area = view.emitter_pdf(next.hit.prim, le);
-        if pdf_area.value() == 0.0 {
-            return one; // not reachable by light sampling
-        }
-        match self.strategy {
-            LightStrategy::BsdfOnly => one,
-            LightStrategy::LightOnly => V::R::zero(),
-            LightStrategy::Mis => {
-                let cos_l = next.geometric_normal.dot(wi).abs();
-                if cos_l.value() <= 0.0 {
-                    return one;
-                }
-                let pdf_light = area_to_solid_angle(pdf_area, next.t * next.t, cos_l);
-                power_heuristic(pdf_brdf, pdf_light)
-            }
-        }
+        path.radiance
     }
 }

@@ -398,7 +398,12 @@ fn direction_term<const K: usize>(
     stats.landed += 1;
     stats.evaluations += 2;
     let hv = HitR::<f32>::from(hit.hit);
-    let beta = V3::from_vec3(v.beta.value() * v.albedo.value());
+    let at = Vertex {
+        bounce: v.bounce,
+        hit: &hv,
+        beta: V3::from_vec3(v.beta.value()),
+        albedo: V3::from_vec3(v.albedo.value()),
+    };
     // Where two surfaces meet, beyond the band along the curve where the
     // renderer's own rays misbehave ([`meeting_band`]).
     let offset = match picks.get(i) {
@@ -410,15 +415,7 @@ fn direction_term<const K: usize>(
     };
     let side = |sign: f32| {
         let dir = (w + normal / len * (sign * offset)).normalize();
-        let c = tracer.continue_along(
-            scene,
-            &hv,
-            V3::from_vec3(dir),
-            v.bounce,
-            beta,
-            ctx,
-            &mut NoStats,
-        );
+        let c = tracer.continue_along(scene, &at, V3::from_vec3(dir), ctx, &mut NoStats);
         c.value()
     };
     let (plus, minus) = (side(1.0), side(-1.0));
