@@ -46,7 +46,7 @@ const CRATES: &[(&str, &str, &[&[&str]])] = &[
         "raylab-lab",
         &[&["analysis"], &["validate"], &["experiment"], &["report"]],
     ),
-    ("cli", "raylab-cli", &[]),
+    ("cli", "raylab-cli", &[&["commands"]]),
 ];
 
 /// What the renderer core must not pull in: plotting, tables, hashing,
