@@ -40,7 +40,7 @@
 //! The Jacobian comes from forward mode on two-wide duals; ∂f/∂θ is the
 //! integrator's, on the same K-wide duals as the pixel samples.
 //!
-//! Only parameters that move what camera rays meet ([`moves_hits`]) have
+//! Only parameters that move what camera rays meet ([`moves_hits`](super::params::moves_hits)) have
 //! the singularity, and only passes with one of them split the film; for
 //! the others the gradient render stays the derivative of the `f32`
 //! render's own samples.

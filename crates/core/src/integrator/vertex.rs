@@ -14,22 +14,22 @@
 //! 1. **The BSDF** at x ([`Bsdf::of`](super::bsdf::Bsdf::of)); a surface that reflects nothing
 //!    ends the path ([`Bsdf::reflects`](super::bsdf::Bsdf::reflects)).
 //! 2. **The numbers**: six uniform numbers keyed by (seed, pixel, sample,
-//!    vertex) ([`vertex_numbers`]), by what they are for
-//!    ([`VertexNumbers`]).
+//!    vertex) (`vertex_numbers`), by what they are for
+//!    (`VertexNumbers`).
 //! 3. **Next-event estimation**: every point light behind a shadow ray
-//!    ([`point_lights`]) and one area-light sample ([`pick_area_light`],
+//!    (`point_lights`) and one area-light sample (`pick_area_light`,
 //!    weighted by [`crate::lighting::lambert_area_terms`] with the MIS
-//!    weight when [`PathTracer::mis`], behind a shadow ray; one sample at a
-//!    time that is [`PathTracer::area_light`]), each through the BSDF
+//!    weight when `PathTracer::mis`, behind a shadow ray; one sample at a
+//!    time that is `PathTracer::area_light`), each through the BSDF
 //!    ([`Bsdf::reflected`](super::bsdf::Bsdf::reflected)).
 //! 4. **The BSDF sample**: a direction, its density and whether it leaves
 //!    below the surface, which ends the path ([`Bsdf::sample`](super::bsdf::Bsdf::sample)); then the
 //!    throughput update β ← β·f·cos θ/p ([`super::bsdf::BsdfSample::throughput`]).
 //! 5. **The BSDF ray**: what it brings back, the background or the emission
 //!    of the surface it finds weighted for MIS
-//!    ([`PathTracer::bsdf_ray_light`], [`PathTracer::emission_weight`]).
+//!    (`PathTracer::bsdf_ray_light`, `PathTracer::emission_weight`).
 //! 6. **Going on**: the last bounce or Russian roulette ends the path
-//!    ([`PathTracer::carry_on`], [`roulette`]); else the surface found is
+//!    (`PathTracer::carry_on`, `roulette`); else the surface found is
 //!    the next vertex.
 
 use super::SampleContext;

@@ -1,5 +1,5 @@
 //! Scene files: TOML, parsed with serde into a
-//! [`SceneDescription`](crate::scene::description::SceneDescription) (the
+//! [`SceneDescription`] (the
 //! file's numbers, checked, meshes read once), from which
 //! [`Scene::build`] makes the scene. The schema is documented in the
 //! book's reference (`book/src/reference/scene-files.md`). Unknown fields,
