@@ -60,6 +60,7 @@ pub(super) fn cmd_optimize(args: OptimizeArgs) -> ExitCode {
         spec: args.spec,
         out_dir: args.output,
         stop_after: args.stop_after,
+        target_sampler: args.target_sampler,
         threads: args.threads,
         progress: !args.quiet,
     };

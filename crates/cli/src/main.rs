@@ -511,6 +511,11 @@ struct OptimizeArgs {
     /// are dropped.
     #[arg(long, value_name = "N")]
     stop_after: Option<u32>,
+    /// Render the target (when the spec gives it as values) with this
+    /// sampler instead of the spec's `[target] sampler`: a quicker, noisier
+    /// target for a quick look (e.g. `random:1024`).
+    #[arg(long, value_name = "SAMPLER", value_parser = Sampler::parse)]
+    target_sampler: Option<Sampler>,
     /// Render threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,

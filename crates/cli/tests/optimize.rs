@@ -356,6 +356,39 @@ fn an_image_target_of_the_wrong_size_is_refused() {
     assert!(text(&o.stderr).contains("4×4"), "{}", text(&o.stderr));
 }
 
+/// `--target-sampler` renders a target given by values with another
+/// sampler (its image differs from the spec's jitter:4 target at the
+/// silhouette, where one sample per pixel cannot average), and is refused,
+/// naming the flag and the image, when the target is an image file.
+#[test]
+fn target_sampler_replaces_the_specs_and_is_refused_for_an_image_target() {
+    let (dir, spec) = setup(&spec(2));
+    let read = |out: &Path| std::fs::read(out.join("target.exr")).unwrap();
+    let (spec_out, quick_out) = (dir.path().join("spec"), dir.path().join("quick"));
+    let o = optimize(&spec, &spec_out, &["--stop-after", "1", "-q"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let quick = ["--stop-after", "1", "-q", "--target-sampler", "jitter:1"];
+    let o = optimize(&spec, &quick_out, &quick);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert_ne!(read(&spec_out), read(&quick_out));
+
+    image::RgbImage::new(32, 24)
+        .save(dir.path().join("t.png"))
+        .unwrap();
+    let text_spec = std::fs::read_to_string(&spec).unwrap().replace(
+        "values = { \"materials.red.color\" = [0.8, 0.2, 0.1] }\nsampler = \"jitter:4\"",
+        "image = \"t.png\"",
+    );
+    std::fs::write(&spec, text_spec).unwrap();
+    let o = optimize(&spec, &dir.path().join("image"), &quick);
+    assert_eq!(o.status.code(), Some(1));
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("--target-sampler") && err.contains("t.png"),
+        "{err}"
+    );
+}
+
 /// A flat white sphere (ambient light only) over a dark background: the
 /// image depends on the sphere's centre only through its silhouette, so
 /// the interior derivative is exactly 0 and only the boundary term moves

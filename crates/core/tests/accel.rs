@@ -29,7 +29,7 @@ use raylab::stats::{Counters, NoStats};
 use rayon::prelude::*;
 use std::time::Instant;
 
-use raylab_testkit::meshes::{all_ids, mesh_prims, rays_for, reference, triangle, vertices};
+use raylab_testkit::meshes::{all_ids, brute_case, triangle, vertices};
 
 /// Visit every node with the range of primitive slots below it (subtrees
 /// are contiguous in the index array), checking the layout on the way:
@@ -122,11 +122,9 @@ fn check_accelerator_structure(accel: &Accelerator, prims: &[Primitive], config:
 /// Every volume × builder against brute force on one mesh; prints a table
 /// of speed and per-ray counts (run with `--nocapture` to see it).
 fn agree_with_brute_force(relative: &str, seed: u64) {
-    let prims = mesh_prims(relative);
-    let rays = rays_for(&prims, seed);
-    let start = Instant::now();
-    let truth = reference(&prims, &rays);
-    let brute_seconds = start.elapsed().as_secs_f64();
+    let case = brute_case(relative, seed);
+    let (prims, rays, truth) = (&case.prims[..], &case.rays[..], &case.truth[..]);
+    let brute_seconds = case.brute_seconds;
     let hits = truth.iter().filter(|h| h.is_some()).count();
     println!(
         "{relative}: {} triangles, {} rays, {hits} hit; brute force {brute_seconds:.2} s on {} threads",
@@ -141,16 +139,16 @@ fn agree_with_brute_force(relative: &str, seed: u64) {
     assert!(hits > rays.len() / 4, "too few hits to test anything");
 
     for config in BvhConfig::all() {
-        let accel = Accelerator::build(AccelKind::Bvh(config), &prims, all_ids(&prims)).unwrap();
+        let accel = Accelerator::build(AccelKind::Bvh(config), prims, all_ids(prims)).unwrap();
         assert_eq!(accel.kind(), AccelKind::Bvh(config));
-        check_accelerator_structure(&accel, &prims, &config);
-        check_against_brute_force(&accel, &prims, &rays, &truth);
+        check_accelerator_structure(&accel, prims, &config);
+        check_against_brute_force(&accel, prims, rays, truth);
     }
     // The wide trees (packet leaves, the 4- and 8-lane node tests).
     for kind in [AccelKind::Bvh4, AccelKind::Bvh8] {
-        let wide = Accelerator::build(kind, &prims, all_ids(&prims)).unwrap();
+        let wide = Accelerator::build(kind, prims, all_ids(prims)).unwrap();
         assert_eq!(wide.kind(), kind);
-        check_against_brute_force(&wide, &prims, &rays, &truth);
+        check_against_brute_force(&wide, prims, rays, truth);
     }
 }
 

@@ -35,7 +35,7 @@ use raylab::shape::{Intersect, PreparedRay, Primitive, Shape};
 use raylab::stats::NoStats;
 use rayon::prelude::*;
 
-use raylab_testkit::meshes::{all_ids, mesh_prims, rays_for, reference};
+use raylab_testkit::meshes::{all_ids, brute_case};
 
 /// The most rays of each kind of `rays_for` (of 20 000: random through the
 /// box, at vertices, at edge midpoints, from inside, axis-parallel through
@@ -116,21 +116,20 @@ fn edge_distance(prim: &Primitive, ray: &PreparedRay) -> f64 {
 /// obvhs against brute force on one mesh; returns the rays only one side
 /// hit (after checking each is at an edge).
 fn agree_with_brute_force(relative: &str, seed: u64) -> [usize; 5] {
-    let prims = mesh_prims(relative);
-    let rays = rays_for(&prims, seed);
-    let truth = reference(&prims, &rays);
-    let accel = Accelerator::build(AccelKind::Obvhs, &prims, all_ids(&prims)).unwrap();
+    let case = brute_case(relative, seed);
+    let (prims, rays, truth) = (&case.prims[..], &case.rays[..], &case.truth[..]);
+    let accel = Accelerator::build(AccelKind::Obvhs, prims, all_ids(prims)).unwrap();
     assert_eq!(accel.kind(), AccelKind::Obvhs);
     let found: Vec<_> = rays
         .par_iter()
-        .map(|r| accel.intersect(&prims, r, f32::INFINITY, &mut NoStats))
+        .map(|r| accel.intersect(prims, r, f32::INFINITY, &mut NoStats))
         .collect();
 
     // Slips by ray kind of `rays_for` (20 000 rays each): random through
     // the box, at vertices, at edge midpoints, from inside, axis-parallel.
     let (mut same, mut ties, mut slips) = (0, 0, [0usize; 5]);
     let (mut worst_dt, mut worst_gap, mut worst_edge) = (0.0f32, 0.0f64, 0.0f64);
-    for (i, (got, want)) in found.iter().zip(&truth).enumerate() {
+    for (i, (got, want)) in found.iter().zip(truth).enumerate() {
         let r = &rays[i];
         // Where only one side hits triangle `id` (or one finds a triangle
         // nearer than the other's), the ray must pass at its edge.
@@ -199,11 +198,11 @@ fn agree_with_brute_force(relative: &str, seed: u64) -> [usize; 5] {
     const NODE_TMIN: f32 = 1e-4;
     let ok = rays.par_iter().zip(&found).all(|(r, got)| {
         let mut s = NoStats;
-        accel.occluded(&prims, r, f32::INFINITY, &mut s) == got.is_some()
+        accel.occluded(prims, r, f32::INFINITY, &mut s) == got.is_some()
             && got.is_none_or(|(_, h)| {
                 let beyond = h.t * (1.0 + 1e-5);
-                !accel.occluded(&prims, r, h.t * (1.0 - 1e-5), &mut s)
-                    && (beyond <= NODE_TMIN || accel.occluded(&prims, r, beyond, &mut s))
+                !accel.occluded(prims, r, h.t * (1.0 - 1e-5), &mut s)
+                    && (beyond <= NODE_TMIN || accel.occluded(prims, r, beyond, &mut s))
             })
     });
     assert!(

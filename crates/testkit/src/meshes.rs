@@ -8,6 +8,9 @@ use raylab::math::{Aabb, Ray, Vec3};
 use raylab::shape::{PreparedRay, Primitive, Shape, Triangle};
 use raylab::stats::NoStats;
 use rayon::prelude::*;
+use std::collections::HashMap;
+use std::sync::{Mutex, OnceLock};
+use std::time::Instant;
 
 pub fn triangle(p0: Vec3, p1: Vec3, p2: Vec3) -> Primitive {
     Primitive {
@@ -83,6 +86,47 @@ pub fn rays_for(prims: &[Primitive], seed: u64) -> Vec<PreparedRay> {
         }
     }
     rays
+}
+
+/// One mesh's triangles, the rays of [`rays_for`] through it and brute
+/// force's answers: what the accelerator tests (`accel.rs`, `obvhs.rs`)
+/// check against.
+pub struct BruteCase {
+    pub prims: Vec<Primitive>,
+    pub rays: Vec<PreparedRay>,
+    /// Brute force's closest hit for each ray ([`reference`]).
+    pub truth: Vec<Option<(u32, f32)>>,
+    /// How long brute force took, in seconds.
+    pub brute_seconds: f64,
+}
+
+/// The [`BruteCase`] of the mesh `relative` (under `data/external/`) with
+/// the rays of `seed`, computed once per test process: brute force over
+/// 10⁵ rays is most of an accelerator test's time (36 s of 49 for the
+/// camel on two threads), and the BVH and obvhs tests of one mesh share
+/// it. A test asking while another computes it waits for that one.
+pub fn brute_case(relative: &str, seed: u64) -> &'static BruteCase {
+    type Cases = HashMap<(String, u64), &'static OnceLock<BruteCase>>;
+    static CASES: Mutex<Option<Cases>> = Mutex::new(None);
+    let cell: &'static OnceLock<BruteCase> = {
+        let mut cases = CASES.lock().unwrap_or_else(|e| e.into_inner());
+        let cases = cases.get_or_insert_with(HashMap::new);
+        cases
+            .entry((relative.to_string(), seed))
+            .or_insert_with(|| Box::leak(Box::new(OnceLock::new())))
+    };
+    cell.get_or_init(|| {
+        let prims = mesh_prims(relative);
+        let rays = rays_for(&prims, seed);
+        let start = Instant::now();
+        let truth = reference(&prims, &rays);
+        BruteCase {
+            prims,
+            rays,
+            truth,
+            brute_seconds: start.elapsed().as_secs_f64(),
+        }
+    })
 }
 
 /// Brute force's closest hit for each ray: (primitive, t).

@@ -20,10 +20,11 @@
 use crate::analysis::plot::{AxisScale, ImageGrid, LineChart, Series, SeriesStyle};
 use crate::{Error, FileOp};
 use raylab::diff::optimize::{
-    average_last, load_spec, relative_error, Iteration, Optimizer, Problem, Spec,
+    average_last, load_spec, relative_error, Iteration, OptimizeTarget, Optimizer, Problem, Spec,
 };
 use raylab::io::image::write_image;
 use raylab::io::write_atomically;
+use raylab::sampler::Sampler;
 use std::fmt;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -38,6 +39,10 @@ pub struct OptimizeOptions {
     /// Stop after this many iterations: the first ones of the spec's run
     /// (its rate schedule unchanged); snapshots beyond them are dropped.
     pub stop_after: Option<u32>,
+    /// Render a target given by values with this sampler instead of the
+    /// spec's (a quicker, noisier target for a quick look); an error when
+    /// the spec's target is an image file.
+    pub target_sampler: Option<Sampler>,
     /// Render threads; `None` means all cores.
     pub threads: Option<usize>,
     /// Show a progress bar with the loss on a terminal.
@@ -96,6 +101,19 @@ impl OptimizeReport {
             None => spec.iterations,
         };
         spec.snapshots.retain(|&i| i < run);
+        if let Some(chosen) = opts.target_sampler {
+            match &mut spec.target {
+                OptimizeTarget::Values { sampler, .. } => *sampler = chosen,
+                OptimizeTarget::Image(path) => {
+                    return Err(Error::Argument(format!(
+                        "--target-sampler applies to a target rendered from values; \
+                         {}'s target is the image {}",
+                        opts.spec.display(),
+                        path.display()
+                    )))
+                }
+            }
+        }
         let problem = Problem::new(spec, opts.threads)?;
         std::fs::create_dir_all(&opts.out_dir)
             .map_err(|e| Error::io(&opts.out_dir, FileOp::CreateFolder, e))?;
