@@ -94,7 +94,7 @@ pub fn rays_for(prims: &[Primitive], seed: u64) -> Vec<PreparedRay> {
 pub struct BruteCase {
     pub prims: Vec<Primitive>,
     pub rays: Vec<PreparedRay>,
-    /// Brute force's closest hit for each ray ([`reference`]).
+    /// Brute force's closest hit for each ray ([`reference()`]).
     pub truth: Vec<Option<(u32, f32)>>,
     /// How long brute force took, in seconds.
     pub brute_seconds: f64,
