@@ -9,7 +9,7 @@ use raylab::shape::{PreparedRay, Primitive, Shape, Triangle};
 use raylab::stats::NoStats;
 use rayon::prelude::*;
 use std::collections::HashMap;
-use std::sync::{Mutex, OnceLock};
+use std::sync::{LazyLock, Mutex, OnceLock};
 use std::time::Instant;
 
 pub fn triangle(p0: Vec3, p1: Vec3, p2: Vec3) -> Primitive {
@@ -107,14 +107,12 @@ pub struct BruteCase {
 /// it. A test asking while another computes it waits for that one.
 pub fn brute_case(relative: &str, seed: u64) -> &'static BruteCase {
     type Cases = HashMap<(String, u64), &'static OnceLock<BruteCase>>;
-    static CASES: Mutex<Option<Cases>> = Mutex::new(None);
-    let cell: &'static OnceLock<BruteCase> = {
-        let mut cases = CASES.lock().unwrap_or_else(|e| e.into_inner());
-        let cases = cases.get_or_insert_with(HashMap::new);
-        cases
-            .entry((relative.to_string(), seed))
-            .or_insert_with(|| Box::leak(Box::new(OnceLock::new())))
-    };
+    static CASES: LazyLock<Mutex<Cases>> = LazyLock::new(Mutex::default);
+    let cell: &'static OnceLock<BruteCase> = CASES
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .entry((relative.to_string(), seed))
+        .or_insert_with(|| Box::leak(Box::new(OnceLock::new())));
     cell.get_or_init(|| {
         let prims = mesh_prims(relative);
         let rays = rays_for(&prims, seed);
