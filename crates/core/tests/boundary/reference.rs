@@ -186,17 +186,18 @@ pub(super) fn cornell_checks(integrator: &str, names: &[&str], text: &str) {
 /// derivative over the parameter's interval: (I(θ + h) − I(θ − h)) / 2h =
 /// (1/2h) ∫ I′(φ) dφ over [θ − h, θ + h], for each pixel, edges crossing
 /// its borders included. So the reference ([`reference`]) is compared
-/// with the mean of `RENDERS` (64) derivative renders at φ drawn one in
-/// each 64th of that interval (4 random samples per pixel each, seeds
-/// apart), and both estimate the same number whatever the step: no edge
-/// near a pixel border biases a pixel, so the step can be large enough
-/// for a low-noise reference even for parameters that move edges slowly
-/// (the camera's aim and field of view, rotations). The derivative's
-/// standard error is the spread over the renders, which also holds the
-/// variation over φ, so it is conservative where an edge enters a pixel
-/// within the interval. Each `(name, h)` is checked alone, `size` ×
-/// `size` pixels: with `full` ≥ 99 % of pixels pass [`judge`] and the
-/// image mean's |z| < 4; with `interior` fewer than 97 % pass.
+/// with the mean of [`Averaged::renders`] (64) derivative renders at φ
+/// drawn one in each of as many equal parts of that interval (256 / renders
+/// random samples per pixel each, seeds apart), and both estimate the same
+/// number whatever the step: no edge near a pixel border biases a pixel,
+/// so the step can be large enough for a low-noise reference even for
+/// parameters that move edges slowly (the camera's aim and field of view,
+/// rotations). The derivative's standard error is the spread over the
+/// renders, which also holds the variation over φ, so it is conservative
+/// where an edge enters a pixel within the interval. Each `(name, h)` is
+/// checked alone, `size` × `size` pixels: with `full` ≥ 99 % of pixels
+/// pass [`judge`] and the image mean's |z| < 4; with `interior` fewer than
+/// 97 % pass.
 pub(super) fn averaged_checks(
     path: &Path,
     text: &str,
@@ -204,28 +205,52 @@ pub(super) fn averaged_checks(
     names: &[(&str, f32)],
     size: u32,
 ) {
-    averaged_checks_at(path, text, integrator, names, size, 0.99);
+    averaged_checks_with(path, text, integrator, names, size, Averaged::default());
 }
 
-/// [`averaged_checks`] with `full` passing on at least `share` of the
-/// pixels.
-pub(super) fn averaged_checks_at(
+/// How [`averaged_checks_with`] averages and judges.
+#[derive(Clone, Copy)]
+pub(super) struct Averaged {
+    /// The share of pixels `full` must pass on (0.99).
+    pub(super) share: f64,
+    /// Derivative renders (64), 256 / `renders` samples per pixel each.
+    /// Each full render pays the curve search once, whatever its samples
+    /// (about a second for S1's 57 chains), so fewer renders of more
+    /// samples cost less; the standard errors then have fewer degrees of
+    /// freedom (renders − 1), which makes the 4-SE judgement less
+    /// conservative per pixel.
+    pub(super) renders: u32,
+}
+
+impl Default for Averaged {
+    fn default() -> Self {
+        Self {
+            share: 0.99,
+            renders: 64,
+        }
+    }
+}
+
+/// [`averaged_checks`] with `how` instead of its defaults.
+pub(super) fn averaged_checks_with(
     path: &Path,
     text: &str,
     integrator: &str,
     names: &[(&str, f32)],
     size: u32,
-    share: f64,
+    how: Averaged,
 ) {
-    const RENDERS: u32 = 64;
-    let base = SceneSource::parse(text, path, &small(size, "random:4", 0)).unwrap();
+    let Averaged { share, renders } = how;
+    assert!(renders >= 2 && 256 % renders == 0);
+    let sampler = format!("random:{}", 256 / renders);
+    let base = SceneSource::parse(text, path, &small(size, &sampler, 0)).unwrap();
     let integrator = IntegratorKind::parse(integrator).unwrap();
     for &(name, h) in names {
         let param = params(&[name], &base.description).remove(0);
         let mut rng = SplitMix64(u64::from(h.to_bits()));
         let (mut full, mut interior) = (Vec::new(), Vec::new());
-        for k in 0..RENDERS {
-            let u = (k as f32 + rng.next_f32()) / RENDERS as f32;
+        for k in 0..renders {
+            let u = (k as f32 + rng.next_f32()) / renders as f32;
             let mut desc = base.description.clone();
             let value = desc.value(param) - h + 2.0 * h * u;
             desc.set_value(param, value);

@@ -1,11 +1,11 @@
 //! Image power spectra: |DFT|² of a 2D field (typically a luminance error
-//! image against a converged reference) via `rustfft`, shifted so DC is in
-//! the middle, and its radial profile in cycles per pixel. Part of
-//! [`crate::analysis::spectrum`].
+//! image against a converged reference) via `rustfft` (its scalar planner:
+//! see the crate's Cargo.toml), shifted so DC is in the middle, and its
+//! radial profile in cycles per pixel. Part of [`crate::analysis::spectrum`].
 
 use ndarray::Array2;
 use rustfft::num_complex::Complex64;
-use rustfft::FftPlanner;
+use rustfft::FftPlannerScalar;
 
 /// The power spectrum |DFT(image)|² / (rows·columns) of a 2D field (rows
 /// are image rows), shifted so the DC term sits at (rows/2, columns/2)
@@ -18,7 +18,7 @@ pub fn power_spectrum(image: &Array2<f64>) -> Array2<f64> {
     if h == 0 || w == 0 {
         return Array2::zeros((h, w));
     }
-    let mut planner = FftPlanner::<f64>::new();
+    let mut planner = FftPlannerScalar::<f64>::new();
     let mut data: Vec<Complex64> = image.iter().map(|&v| Complex64::new(v, 0.0)).collect();
     // Rows (contiguous in the standard layout), then columns via a buffer.
     planner.plan_fft_forward(w).process(&mut data);
