@@ -579,7 +579,9 @@ fn grad_errors_name_the_parameter_and_write_nothing() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
 
-/// Ctrl-C on a render in progress: the process ends with 128 + SIGINT
+/// A signal on a render in progress (each of io::interrupt::SIGNALS:
+/// Ctrl-C, SIGTERM, a closed terminal's SIGHUP, …): the process ends with 128 + the signal's
+/// number, through raylab's handler (a default death has no exit code),
 /// and leaves neither the output nor a temporary file (io::interrupt).
 #[cfg(unix)]
 #[test]
@@ -593,29 +595,35 @@ fn interrupted_render_leaves_no_file() {
         );
     let scene = write(dir.path(), "slow.toml", &slow);
     let out = dir.path().join("slow.png");
-    let mut child = crate::raylab_command()
-        .args([
-            "render",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(500));
-    // SAFETY: `kill` takes no pointer (it is `unsafe` only as a foreign
-    // call); the pid is our own child's, not yet waited for, so it cannot
-    // have been reaped and reused: the signal reaches the process we spawned.
-    unsafe {
-        libc::kill(child.id() as libc::pid_t, libc::SIGINT);
+    for signal in raylab::io::interrupt::SIGNALS {
+        let mut child = crate::raylab_command()
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        // SAFETY: `kill` takes no pointer (it is `unsafe` only as a foreign
+        // call); the pid is our own child's, not yet waited for, so it cannot
+        // have been reaped and reused: the signal reaches the process we spawned.
+        unsafe {
+            libc::kill(child.id() as libc::pid_t, signal);
+        }
+        let status = child.wait().unwrap();
+        assert_eq!(
+            status.code(),
+            Some(128 + signal),
+            "signal {signal}: {status:?}"
+        );
+        let left: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(left, vec![std::ffi::OsString::from("slow.toml")]);
     }
-    let status = child.wait().unwrap();
-    assert_eq!(status.code(), Some(130), "{status:?}");
-    let left: Vec<_> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    assert_eq!(left, vec![std::ffi::OsString::from("slow.toml")]);
 }

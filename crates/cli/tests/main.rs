@@ -9,7 +9,11 @@ mod cli;
 mod experiment;
 #[cfg(feature = "gpu")]
 mod gpu;
+#[cfg(unix)]
+mod hostile;
 mod layers;
+#[cfg(target_os = "linux")]
+mod memory;
 mod optimize;
 mod redraw;
 mod shard;
@@ -31,3 +35,22 @@ pub fn raylab(args: &[&str]) -> Output {
         .output()
         .expect("running raylab")
 }
+
+/// A small valid scene, 8×6 pixels: one lit grey sphere. The hostile-input
+/// suite starts its cases from it, and the memory tests render it large.
+pub const LIT_SPHERE: &str = r#"[image]
+width = 8
+height = 6
+[camera]
+eye = [0.0, 0.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 40.0
+[materials.m]
+color = [0.5, 0.5, 0.5]
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "m"
+[[light]]
+position = [2.0, 2.0, 2.0]
+"#;

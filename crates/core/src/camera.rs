@@ -16,7 +16,7 @@
 //! evaluate them on `f32`, the derivative code on dual numbers (the image's
 //! derivative with respect to the eye, the look-at point or the view angle).
 
-use crate::math::{Ray, RayR, Real, Vec3, V3};
+use crate::math::{Ray, RayR, Real, ShowVec, Vec3, MAX_COORDINATE, V3};
 
 /// The camera's eye, basis and near-plane rectangle, as functions of the
 /// scene file's camera entries.
@@ -144,7 +144,7 @@ pub struct Camera {
 /// Why a camera could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CameraError {
-    #[error("eye and look_at coincide")]
+    #[error("eye and look_at coincide (or lie too close for single precision)")]
     EyeAtTarget,
     #[error("up is parallel to the viewing direction")]
     UpParallel,
@@ -158,6 +158,8 @@ pub enum CameraError {
     Size(u32, u32),
     #[error("`{0}` must be finite, got {1}")]
     NotFinite(&'static str, Vec3),
+    #[error("`{field}` = {v} lies beyond ±{MAX_COORDINATE:e}, the largest coordinate raylab's geometry may have", field = .0, v = ShowVec(*.1))]
+    TooFar(&'static str, Vec3),
 }
 
 /// The camera as a scene file gives it: S2's eye, look-at point, up
@@ -192,6 +194,9 @@ impl CameraDesc {
         ] {
             if !v.is_finite() {
                 return Err(CameraError::NotFinite(name, v));
+            }
+            if v.abs().max_element() > MAX_COORDINATE {
+                return Err(CameraError::TooFar(name, v));
             }
         }
         if !(self.fov > 0.0 && self.fov < 180.0) {

@@ -181,8 +181,12 @@ const ASSIMP_NOT_MESHES: [(&str, &str); 9] = [
     ("PLY/issue623.ply", "not an integer"),
     ("PLY/points.ply", "no triangles"),
     // 69 bytes short of its header's 70051 × 31: bytes were lost (a
-    // text-mode copy), and vertex 714 on decode as garbage.
-    ("PLY/pond.0.ply", "non-finite"),
+    // text-mode copy), and vertex 626 on decode as garbage (y = −1.4e19,
+    // beyond math::MAX_COORDINATE; vertex 714 is the first non-finite).
+    (
+        "PLY/pond.0.ply",
+        "vertex 626 [-9.65447e-27, -1.3783255e19, -3.2367094e-19] lies beyond",
+    ),
 ];
 
 #[test]

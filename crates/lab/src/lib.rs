@@ -137,6 +137,10 @@ pub enum Error {
     /// Writing a report to standard output (or the stream given) failed.
     #[error(transparent)]
     Print(std::io::Error),
+    /// Work that would need more memory than this machine has (checked
+    /// before it is allocated).
+    #[error(transparent)]
+    Memory(#[from] raylab::film::memory::MemoryError),
     /// An argument out of range or in conflict with another, checked past
     /// the command line's own parsing (so the command exits with status
     /// 1, not clap's 2): `--threads 0`, an error-map name that is not
@@ -358,6 +362,19 @@ impl fmt::Display for FileOp {
             FileOp::List => "cannot list",
             FileOp::FindShard => "no such shard folder",
         })
+    }
+}
+
+/// A thread count given by `--threads`: from 1 to
+/// [`MAX_THREADS`](raylab::integrator::MAX_THREADS).
+pub fn check_threads(threads: Option<usize>) -> Result<(), Error> {
+    use raylab::integrator::MAX_THREADS;
+    match threads {
+        Some(n) if n == 0 || n > MAX_THREADS => Err(Error::Argument(format!(
+            "--threads must be from 1 to {MAX_THREADS} (raylab's limit, above any machine's \
+             hardware threads), got {n}"
+        ))),
+        _ => Ok(()),
     }
 }
 

@@ -105,21 +105,20 @@ impl Film {
         self.to_array(|p| p.mean)
     }
 
-    /// Reconstruct the image with `filter` from `samples`, which hold
-    /// `spp` samples per pixel, pixel after pixel in row-major order. Each
+    /// Reconstruct the image with `filter` from `rows`, each row's samples,
+    /// `spp` per pixel, pixel after pixel from the left. Each
     /// output pixel is the weighted mean Σ w·L / Σ w of every sample within
     /// the filter's radius of its centre (the pixel's mean if the weights
     /// cancel, which no filter here does for samples spread over the pixel).
     /// `Filter::Box` clears the filtered image instead.
-    pub fn reconstruct(&mut self, filter: Filter, samples: &[FilmSample], spp: usize) {
+    pub fn reconstruct(&mut self, filter: Filter, rows: &[Vec<FilmSample>], spp: usize) {
         if filter == Filter::Box {
             self.filtered = None;
             return;
         }
         let (w, h) = (self.width as i64, self.height as i64);
-        assert_eq!(
-            samples.len(),
-            (w * h) as usize * spp,
+        assert!(
+            rows.len() == h as usize && rows.iter().all(|r| r.len() == w as usize * spp),
             "one block of spp samples per pixel"
         );
         let r = filter.radius();
@@ -141,8 +140,8 @@ impl Film {
                     let (mut sum, mut wsum) = (Color::ZERO, 0.0f32);
                     for qy in y0..=y1 {
                         for qx in x0..=x1 {
-                            let start = (qy * w + qx) as usize * spp;
-                            for s in &samples[start..start + spp] {
+                            let start = qx as usize * spp;
+                            for s in &rows[qy as usize][start..start + spp] {
                                 let wt = filter.weight(s.pos.x - cx, s.pos.y - cy);
                                 sum += wt * s.value;
                                 wsum += wt;

@@ -53,4 +53,7 @@ pub enum GiError {
     /// A setting of [`FloodFillConfig`] out of range.
     #[error(transparent)]
     Config(#[from] RangeError),
+    /// A grid larger than this machine's memory.
+    #[error(transparent)]
+    Memory(#[from] crate::film::memory::MemoryError),
 }

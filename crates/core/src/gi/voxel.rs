@@ -50,6 +50,34 @@ pub const ELLIPSOID_SWEEPS: usize = 24;
 /// voxels of the flood fill's two buffers would already need 24 GiB.
 pub const MAX_RESOLUTION: usize = 1024;
 
+/// The bytes a voxel of a flood-fill cache takes while the cache is built,
+/// its dense arrays counted (the walls' terms come on top, one per face
+/// between a wall and air): the grid's kind, albedo and emission and the
+/// two sample counts of voxelisation, then the flood fill's open flag,
+/// gain and two RGB irradiance buffers over the grid padded by one voxel.
+pub const BYTES_PER_VOXEL: u128 = (size_of::<VoxelKind>()
+    + 2 * size_of::<Color>()
+    + 2 * size_of::<u32>()
+    + size_of::<bool>()
+    + size_of::<f32>()
+    + 2 * 3 * size_of::<f32>()) as u128;
+
+/// Refuse a grid of `dims` voxels that this machine cannot hold, before
+/// any of it is allocated.
+fn check_memory(dims: [usize; 3], resolution: usize) -> Result<(), GiError> {
+    let padded: u128 = dims.iter().map(|&d| d as u128 + 2).product();
+    crate::film::memory::check(
+        || {
+            format!(
+                "a flood-fill cache of {}×{}×{} voxels (res={resolution})",
+                dims[0], dims[1], dims[2]
+            )
+        },
+        padded * BYTES_PER_VOXEL,
+    )?;
+    Ok(())
+}
+
 /// What a voxel holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum VoxelKind {
@@ -144,6 +172,7 @@ impl VoxelGrid {
         let voxel_size = longest / spec.resolution as f32;
         let n = |e: f32| ((e / voxel_size).ceil() as usize).clamp(1, spec.resolution);
         let dims = [n(ext.x), n(ext.y), n(ext.z)];
+        check_memory(dims, spec.resolution)?;
         let mut grid = Self::empty(b.min, voxel_size, dims);
         let mut albedo_count = Array3::<u32>::zeros(dims);
         let mut emission_count = Array3::<u32>::zeros(dims);

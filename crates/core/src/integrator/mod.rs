@@ -272,12 +272,21 @@ pub fn render_with_costs<I: Integrator>(
     })
 }
 
-/// Run `f` on a pool of `threads` workers, or on rayon's global pool.
+/// The most worker threads any command starts (`--threads`, a manifest's
+/// `threads`): beyond the hardware threads of the largest machines (two
+/// 192-core, 384-thread processors have 768), so it never limits real
+/// parallelism; oversubscribing further only adds switching, and each
+/// thread reserves its own stack. Asking for more is an error, not a
+/// silent clamp.
+pub const MAX_THREADS: usize = 1024;
+
+/// Run `f` on a pool of `threads` workers (at most [`MAX_THREADS`]), or on
+/// rayon's global pool.
 pub(crate) fn in_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T {
     match threads {
         None => f(),
         Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
+            .num_threads(n.clamp(1, MAX_THREADS))
             .build()
             .expect("building a rayon thread pool") // only fails on OS thread exhaustion
             .install(f),
@@ -375,10 +384,12 @@ where
         out
     });
     let mut pixels = Vec::new();
-    let mut samples = Vec::new();
+    // Each row's samples stay where the row put them: gathering them into
+    // one vector would hold them twice (film::memory counts them once).
+    let mut samples = Vec::with_capacity(rows.len());
     for row in rows {
         pixels.extend(row.per_pixel);
-        samples.extend(row.samples);
+        samples.push(row.samples);
     }
     if keep_samples {
         film.reconstruct(filter, &samples, spp as usize);

@@ -135,11 +135,12 @@ pub fn write_exr_channels(
 /// image (each pixel's mean, or the filtered value when a wider filter
 /// made one), `variance.R`, `variance.G`, `variance.B` = the unbiased
 /// sample variance of its samples (divide by `count` for the variance of
-/// the mean), `count` = its number of samples (32-bit unsigned).
-pub fn write_film_exr(path: &Path, film: &Film) -> Result<(), OutputError> {
+/// the mean), `count` = its number of samples (32-bit unsigned). `image`
+/// is the film's [`Film::image`], which the caller has developed already
+/// (a second copy would cost 12 bytes a pixel).
+pub fn write_film_exr(path: &Path, film: &Film, image: &LinearImage) -> Result<(), OutputError> {
     let channel =
         |f: &dyn Fn(&PixelStats) -> f32| ChannelData::F32(film.pixels.iter().map(f).collect());
-    let image = film.image();
     let plane = |c: usize| {
         ChannelData::F32(
             image
@@ -216,13 +217,38 @@ pub fn read_exr_channels(path: &Path) -> Result<ExrChannels, InputError> {
     })
 }
 
-/// Read a PNG (decoded from sRGB to linear) or EXR (taken as linear) into a
-/// linear RGB image. Alpha is dropped.
-pub fn read_image(path: &Path) -> Result<LinearImage, InputError> {
+/// The most bytes a pixel takes while [`read_image`] decodes it: the
+/// decoder's image (at most RGBA in 32-bit floats, 16), its RGB copy (at
+/// most 12) and the linear image returned (12).
+pub const DECODE_BYTES_PER_PIXEL: u128 = 16 + 12 + 12;
+
+/// The width and height an image file's header declares, read without
+/// decoding it (the file checked as [`read_image`] checks it).
+pub fn dimensions(path: &Path) -> Result<(u32, u32), InputError> {
     let format = ImageFormat::from_path(path).ok_or_else(|| {
         InputError::file(path, "unsupported image extension (expected .png or .exr)")
     })?;
     check_declared_size(path, format)?;
+    image::ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| InputError::file(path, format!("cannot read: {e}")))?
+        .into_dimensions()
+        .map_err(|e| InputError::file(path, e.to_string()))
+}
+
+/// Read a PNG (decoded from sRGB to linear) or EXR (taken as linear) into a
+/// linear RGB image. Alpha is dropped. An image whose decoding would need
+/// more memory than the machine has is refused before it is decoded.
+pub fn read_image(path: &Path) -> Result<LinearImage, InputError> {
+    let format = ImageFormat::from_path(path).ok_or_else(|| {
+        InputError::file(path, "unsupported image extension (expected .png or .exr)")
+    })?;
+    let (w, h) = dimensions(path)?;
+    crate::film::memory::check(
+        || format!("decoding its {w}×{h} pixels"),
+        u128::from(w) * u128::from(h) * DECODE_BYTES_PER_PIXEL,
+    )
+    .map_err(|e| InputError::file(path, e.to_string()))?;
     let dynimg = image::open(path).map_err(|e| InputError::file(path, e.to_string()))?;
     let (w, h) = (dynimg.width() as usize, dynimg.height() as usize);
     let data: Vec<f32> = match format {
@@ -257,9 +283,7 @@ const EXR_MAX_RATIO: u64 = 2048;
 /// bounding it, so three flipped bits made it ask for 72 PB and abort the
 /// process (found by crates/lab/tests/fuzz.rs). raylab writes ZIP.
 fn check_declared_size(path: &Path, format: ImageFormat) -> Result<(), InputError> {
-    let file_len = std::fs::metadata(path)
-        .map_err(|e| InputError::file(path, format!("cannot read: {e}")))?
-        .len();
+    let file_len = super::input::check(path, super::input::InputKind::Image)?;
     let (declared, ratio, what) = match format {
         ImageFormat::Png => {
             let mut header = [0u8; 29];
@@ -539,7 +563,7 @@ mod tests {
         }
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("f.exr");
-        write_film_exr(&path, &film).unwrap();
+        write_film_exr(&path, &film, &film.image()).unwrap();
         let exr = read_exr_channels(&path).unwrap();
         assert_eq!((exr.width, exr.height), (3, 2));
         let get = |name: &str| {

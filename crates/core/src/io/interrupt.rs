@@ -1,5 +1,13 @@
-//! Ctrl-C (SIGINT) or SIGTERM while a file is being written leaves no
-//! partial file. Outputs are written to a temporary file and renamed into
+//! A signal that ends the process while a file is being written leaves no
+//! partial file: Ctrl-C (SIGINT), SIGTERM, a closed terminal (SIGHUP),
+//! `Ctrl-\` (SIGQUIT), SIGUSR1/2, the timers (SIGALRM, SIGVTALRM,
+//! SIGPROF) and the CPU-time and file-size limits (SIGXCPU, SIGXFSZ): the
+//! signals that end a process by default and come from outside it
+//! ([`SIGNALS`]). SIGPIPE is not among them: Rust's runtime ignores it, so
+//! a write to a closed pipe is an error the writer reports. SIGKILL cannot
+//! be caught; nothing can clean up after it.
+//!
+//! Outputs are written to a temporary file and renamed into
 //! place ([`super::write_atomically`]), so an interrupted write would
 //! leave only that temporary file behind: [`install`] sets a signal
 //! handler that unlinks every temporary file being written ([`pending`]
@@ -48,13 +56,28 @@ extern "C" fn on_signal(sig: libc::c_int) {
     unsafe { libc::_exit(128 + sig) }
 }
 
-/// Install the handler for SIGINT and SIGTERM (once per process; the CLI
-/// does it at start).
+/// The signals [`install`] handles.
+pub const SIGNALS: [libc::c_int; 11] = [
+    libc::SIGINT,
+    libc::SIGTERM,
+    libc::SIGHUP,
+    libc::SIGQUIT,
+    libc::SIGUSR1,
+    libc::SIGUSR2,
+    libc::SIGALRM,
+    libc::SIGVTALRM,
+    libc::SIGPROF,
+    libc::SIGXCPU,
+    libc::SIGXFSZ,
+];
+
+/// Install the handler for [`SIGNALS`] (once per process; the CLI does it
+/// at start).
 pub fn install() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-        for sig in [libc::SIGINT, libc::SIGTERM] {
+        for sig in SIGNALS {
             // SAFETY: `handler` is an `extern "C" fn(c_int)`, the type
             // `signal` expects, and it only reads atomics and calls
             // async-signal-safe functions (`unlink`, `_exit`), as a handler

@@ -21,6 +21,7 @@ pub use ply::{parse_ply, read_ply};
 pub use three_ds::{parse_3ds, read_3ds};
 
 use super::InputError;
+use crate::math::MAX_COORDINATE;
 pub use crate::shape::MeshData;
 use glam::Vec3;
 use std::path::Path;
@@ -67,8 +68,7 @@ fn supported_list() -> String {
 /// The whole file, or an error naming it; an empty file is an error too,
 /// since no format here has a meaningful empty form.
 fn read_file(path: &Path) -> Result<Vec<u8>, InputError> {
-    let bytes =
-        std::fs::read(path).map_err(|e| InputError::file(path, format!("cannot read: {e}")))?;
+    let bytes = super::input::read(path, super::input::InputKind::Mesh)?;
     check_not_empty(&bytes, path)?;
     Ok(bytes)
 }
@@ -113,16 +113,25 @@ fn finish(path: &Path, mut mesh: MeshData) -> Result<MeshData, InputError> {
 }
 
 /// A position, or an error message naming the vertex when a coordinate is
-/// NaN or infinite (the caller adds the place).
+/// NaN, infinite or beyond [`MAX_COORDINATE`] (the caller adds the place).
 fn finite_vertex(index: usize, p: Vec3) -> Result<Vec3, String> {
-    if p.is_finite() {
-        Ok(p)
-    } else {
-        Err(format!(
-            "vertex {index} has a non-finite coordinate ({}, {}, {})",
-            p.x, p.y, p.z
-        ))
+    vertex_problem(p).map_or(Ok(p), |why| Err(format!("vertex {index} {why}")))
+}
+
+/// What is wrong with a vertex at `p`, if anything: a coordinate NaN,
+/// infinite, or beyond [`MAX_COORDINATE`].
+fn vertex_problem(p: Vec3) -> Option<String> {
+    let show = crate::math::ShowVec(p);
+    if !p.is_finite() {
+        return Some(format!("has a non-finite coordinate {show}"));
     }
+    if p.abs().max_element() > MAX_COORDINATE {
+        return Some(format!(
+            "{show} lies beyond ±{MAX_COORDINATE:e}, the largest coordinate raylab's geometry \
+             may have (its ray tests would overflow single precision)"
+        ));
+    }
+    None
 }
 
 /// `count` as a vertex count that fits the `u32` indices of [`MeshData`].

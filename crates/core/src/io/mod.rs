@@ -3,6 +3,7 @@
 //! and what was expected; they never panic on bad input.
 
 pub mod image;
+pub mod input;
 #[cfg(unix)]
 pub mod interrupt;
 pub mod mesh;
@@ -156,6 +157,69 @@ pub fn write_atomically<E: From<OutputError>>(
     result
 }
 
+/// What a path names, for telling whether two paths are one file: an
+/// existing file by its device and inode (so hard links and symbolic links
+/// to it are the same file), a file still to be made by its folder's
+/// canonical path and its name.
+#[derive(Debug, PartialEq, Eq)]
+enum FileId {
+    #[cfg(unix)]
+    Inode(u64, u64),
+    Path(PathBuf),
+}
+
+fn file_id(path: &Path) -> FileId {
+    #[cfg(unix)]
+    if let Ok(meta) = std::fs::metadata(path) {
+        use std::os::unix::fs::MetadataExt;
+        return FileId::Inode(meta.dev(), meta.ino());
+    }
+    if let Ok(p) = path.canonicalize() {
+        return FileId::Path(p);
+    }
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    let dir = match parent {
+        Some(d) => d.canonicalize().unwrap_or_else(|_| absolute(d)),
+        None => std::env::current_dir().unwrap_or_default(),
+    };
+    FileId::Path(dir.join(path.file_name().unwrap_or_default()))
+}
+
+fn absolute(path: &Path) -> PathBuf {
+    std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf())
+}
+
+/// Refuse, before any work is done, a command whose output would overwrite
+/// one of its inputs or another of its outputs (`diff a.png a.png --out
+/// a.png`, `render -o o.png --spp-map o.png`). Each path comes with the
+/// role that names it in the message (`"--out"`, `"the scene"`).
+pub fn check_outputs(
+    inputs: &[(&str, &Path)],
+    outputs: &[(&str, &Path)],
+) -> Result<(), OutputError> {
+    let inputs: Vec<_> = inputs.iter().map(|&(r, p)| (r, p, file_id(p))).collect();
+    let mut seen: Vec<(&str, &Path, FileId)> = Vec::new();
+    for &(role, path) in outputs {
+        let id = file_id(path);
+        let clash = inputs
+            .iter()
+            .map(|(r, p, i)| (r, p, i, "input"))
+            .chain(seen.iter().map(|(r, p, i)| (r, p, i, "output")))
+            .find(|(_, _, other, _)| **other == id);
+        if let Some((other_role, other_path, _, kind)) = clash {
+            return Err(OutputError::new(
+                path,
+                format!(
+                    "{role} would overwrite {other_role}, an {kind} ({}); choose another path",
+                    other_path.display()
+                ),
+            ));
+        }
+        seen.push((role, path, id));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::scene_file::{parse_scene, Overrides};
@@ -178,5 +242,29 @@ mod tests {
             assert_eq!(e.path, path);
             assert!(e.message.contains(needle), "{text:?}: {e}");
         }
+    }
+
+    #[test]
+    fn an_output_may_not_be_an_input_or_another_output() {
+        let dir = std::env::temp_dir().join(format!("raylab-outputs-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let a = dir.join("a.png");
+        std::fs::write(&a, b"x").unwrap();
+        // The same file by another spelling.
+        let a2 = dir.join(".").join("a.png");
+        let e = check_outputs(&[("TEST", &a)], &[("--out", &a2)]).unwrap_err();
+        assert!(
+            e.message.contains("--out would overwrite TEST, an input"),
+            "{e}"
+        );
+        let o = dir.join("new.png");
+        let e = check_outputs(&[], &[("--output", &o), ("--spp-map", &o)]).unwrap_err();
+        assert!(
+            e.message
+                .contains("--spp-map would overwrite --output, an output"),
+            "{e}"
+        );
+        assert!(check_outputs(&[("TEST", &a)], &[("--out", &o)]).is_ok());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -42,7 +42,9 @@ struct SceneFile {
     #[serde(default)]
     render: RenderDef,
     #[serde(default)]
-    materials: BTreeMap<String, Spanned<Material>>,
+    /// Not `Spanned`: toml cannot span a table made by dotted keys
+    /// (`m.color = …` under `[materials]`); [`material_spans`] finds them.
+    materials: BTreeMap<String, Material>,
     #[serde(default)]
     sphere: Vec<Spanned<SphereDef>>,
     #[serde(default)]
@@ -270,8 +272,7 @@ pub fn parse_scene(text: &str, path: &Path, overrides: &Overrides) -> Result<Sce
 impl SceneSource {
     /// Read and parse the scene file at `path`, with `overrides` applied.
     pub fn load(path: &Path, overrides: &Overrides) -> Result<Self, InputError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| InputError::file(path, format!("cannot read scene file: {e}")))?;
+        let text = super::input::read_to_string(path, super::input::InputKind::Scene)?;
         Self::parse(&text, path, overrides)
     }
 
@@ -403,6 +404,25 @@ impl SceneSource {
 }
 
 /// Parse scene text into its description and the entities' places.
+/// Where each material of `[materials]` is defined: its table's header,
+/// or for one made by dotted keys (`m.color = …`) its first key.
+fn material_spans(text: &str) -> BTreeMap<String, Range<usize>> {
+    let Ok(doc) = toml_edit::ImDocument::parse(text) else {
+        return BTreeMap::new();
+    };
+    let Some(table) = doc.get("materials").and_then(|m| m.as_table_like()) else {
+        return BTreeMap::new();
+    };
+    table
+        .iter()
+        .filter_map(|(name, item)| {
+            let key = table.get_key_value(name).and_then(|(k, _)| k.span());
+            let span = item.span().or(key)?;
+            Some((name.to_string(), span))
+        })
+        .collect()
+}
+
 fn parse_description(text: &str, path: &Path) -> Result<SceneSource, InputError> {
     let at = |span: Range<usize>, msg: String| {
         let (l, c) = line_col(text, span.start);
@@ -418,11 +438,13 @@ fn parse_description(text: &str, path: &Path) -> Result<SceneSource, InputError>
 
     // Materials by name, in name order.
     let mut materials = Vec::new();
+    let material_spans = material_spans(text);
     for (name, m) in &file.materials {
-        spans.insert(Entity::Material(materials.len() as u32), m.span());
+        let span = material_spans.get(name).cloned().unwrap_or(0..0);
+        spans.insert(Entity::Material(materials.len() as u32), span);
         materials.push(NamedMaterial {
             name: name.clone(),
-            material: *m.get_ref(),
+            material: *m,
         });
     }
     let material = |m: &Spanned<String>| -> Result<u32, InputError> {

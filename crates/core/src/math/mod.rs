@@ -23,6 +23,38 @@ pub use sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle};
 
 pub use glam::{Mat3, Vec3};
 
+/// The largest magnitude a coordinate of the scene's geometry may have
+/// (vertices, centres, the camera, lights; radii count from the centre),
+/// checked when a scene or mesh is read. Single precision holds numbers up
+/// to 3.4·10³⁸, but the ray tests and the tree builders multiply
+/// coordinates: the triangle test's `t` is a triple product of differences
+/// of coordinates, at most (2·10¹²)³ = 8·10³⁶ here, and the SAH multiplies
+/// a box's surface area, at most 6·(2·10¹²)² = 2.4·10²⁵, by primitive
+/// counts below 2³². Beyond this bound those products overflow to ∞ and
+/// the trees' costs become ∞ or NaN; a million kilometres in metres is
+/// far beyond any scene single precision can resolve anyway.
+pub const MAX_COORDINATE: f32 = 1.0e12;
+
+/// A vector for messages, `[x, y, z]` with each component as Rust prints
+/// it, in scientific notation from 10⁶ up and below 10⁻⁴: `[-1e38, 0, 0]`,
+/// not 39 digits.
+#[derive(Clone, Copy, Debug)]
+pub struct ShowVec(pub Vec3);
+
+impl std::fmt::Display for ShowVec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let one = |x: f32| {
+            if x.abs() >= 1e6 || (x != 0.0 && x.abs() < 1e-4) {
+                format!("{x:e}")
+            } else {
+                format!("{x}")
+            }
+        };
+        let v = self.0;
+        write!(f, "[{}, {}, {}]", one(v.x), one(v.y), one(v.z))
+    }
+}
+
 /// Linear RGB radiance or reflectance.
 pub type Color = Vec3;
 

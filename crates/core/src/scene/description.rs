@@ -10,13 +10,14 @@
 //! planes, triangles, then meshes (as the scene's `objects` are);
 //! materials in name order.
 
+use super::transform::MeshTransform;
 use super::RenderSettings;
 use crate::accel::AccelKind;
 pub use crate::camera::CameraDesc;
 use crate::camera::CameraError;
 use crate::light::Falloff;
 use crate::material::Material;
-use crate::math::{Color, Vec3};
+use crate::math::{Color, ShowVec, Vec3, MAX_COORDINATE, V3};
 use crate::shape::MeshData;
 use std::fmt;
 use std::sync::Arc;
@@ -165,6 +166,15 @@ impl SceneDescription {
                 bad(entity, format!("`{what}` must be finite, got {v}"))
             }
         };
+        // A place in the scene, `reach` being how far its object extends
+        // from it (a radius).
+        let placed = |entity: Entity, what: &str, v: Vec3, reach: f32| {
+            finite(entity, what, v)?;
+            if v.abs().max_element() + reach > MAX_COORDINATE {
+                return bad(entity, beyond_bound(what, v, reach));
+            }
+            Ok(())
+        };
         for (i, m) in self.materials.iter().enumerate() {
             m.material.validate().or_else(|msg| {
                 bad(
@@ -175,23 +185,24 @@ impl SceneDescription {
         }
         for (i, d) in self.spheres.iter().enumerate() {
             let e = Entity::Sphere(i as u32);
-            finite(e, "center", d.center)?;
             if !(d.radius > 0.0 && d.radius.is_finite()) {
                 return bad(e, format!("`radius` must be positive, got {}", d.radius));
             }
+            placed(e, "center", d.center, d.radius)?;
         }
         for (i, d) in self.ellipsoids.iter().enumerate() {
             let e = Entity::Ellipsoid(i as u32);
-            finite(e, "center", d.center)?;
             finite(e, "rotate", d.rotate)?;
             if !(d.radii.is_finite() && d.radii.min_element() > 0.0) {
                 return bad(e, format!("`radii` must be positive, got {}", d.radii));
             }
+            placed(e, "center", d.center, d.radii.max_element())?;
         }
         for (i, d) in self.planes.iter().enumerate() {
             let e = Entity::Plane(i as u32);
-            finite(e, "point", d.point)?;
-            if !(d.normal.is_finite() && d.normal.length() > 0.0) {
+            placed(e, "point", d.point, 0.0)?;
+            let length = d.normal.length();
+            if !(length.is_finite() && length > 0.0) {
                 return bad(
                     e,
                     format!("`normal` must be a non-zero vector, got {}", d.normal),
@@ -200,7 +211,7 @@ impl SceneDescription {
         }
         for (i, d) in self.triangles.iter().enumerate() {
             for v in d.vertices {
-                finite(Entity::Triangle(i as u32), "vertices", v)?;
+                placed(Entity::Triangle(i as u32), "vertices", v, 0.0)?;
             }
         }
         for (i, d) in self.meshes.iter().enumerate() {
@@ -208,9 +219,28 @@ impl SceneDescription {
         }
         for (i, d) in self.lights.iter().enumerate() {
             let e = Entity::Light(i as u32);
-            finite(e, "position", d.position)?;
+            placed(e, "position", d.position, 0.0)?;
+            finite(e, "color", d.color)?;
+            if !d.intensity.is_finite() {
+                return bad(
+                    e,
+                    format!("`intensity` must be finite, got {}", d.intensity),
+                );
+            }
             let radiance = d.color * d.intensity;
-            if !(radiance.is_finite() && radiance.min_element() >= 0.0) {
+            if !radiance.is_finite() {
+                return bad(
+                    e,
+                    format!(
+                        "`color` × `intensity` = {} × {} overflows single precision \
+                         (largest {:e})",
+                        ShowVec(d.color),
+                        d.intensity,
+                        f32::MAX
+                    ),
+                );
+            }
+            if radiance.min_element() < 0.0 {
                 return bad(e, "light `color` × `intensity` must be non-negative".into());
             }
         }
@@ -220,6 +250,10 @@ impl SceneDescription {
                 Entity::Render,
                 "`max_distance` must be positive and `min_weight` finite".into(),
             );
+        }
+        let tree = self.whitted_tree();
+        if tree.rays > MAX_WHITTED_TREE as f64 {
+            return bad(Entity::Render, tree.refusal(s));
         }
         for (name, c) in [("background", s.background), ("ambient", s.ambient)] {
             finite(Entity::Render, name, c)?;
@@ -275,6 +309,111 @@ impl SceneDescription {
     }
 }
 
+/// The most rays one camera ray's Whitted tree may hold (2²⁰): a tree
+/// that large costs a camera ray a million rays, a render of a 64×64
+/// image four billion. Beyond it a scene is refused before rendering, with
+/// the bound and the settings that give it, so that a pair of mirrors at
+/// `max_depth = 4294967295` or glass behind glass at `max_depth = 64`
+/// (2⁶⁴ rays) cannot start a render that never ends.
+pub const MAX_WHITTED_TREE: u64 = 1 << 20;
+
+/// The largest Whitted ray tree a camera ray can grow in a scene
+/// ([`SceneDescription::whitted_tree`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WhittedTree {
+    /// The bound on the rays of one camera ray's tree (camera ray
+    /// included).
+    pub rays: f64,
+    /// The levels it has (depths 0 … levels − 1).
+    pub levels: u64,
+    /// Rays a hit may spawn: 2 with a material that both reflects and
+    /// refracts, 1 with one that does either, else 0.
+    pub branching: u32,
+    /// A material that gives `branching`, named for the message.
+    pub material: Option<String>,
+}
+
+impl WhittedTree {
+    /// Why a scene with this tree is refused, and what to change.
+    fn refusal(&self, s: &RenderSettings) -> String {
+        let why = match &self.material {
+            Some(m) if self.branching == 2 => {
+                format!("material `{m}` both reflects and refracts, so each hit spawns two rays")
+            }
+            Some(m) => format!("material `{m}` spawns a ray at each hit"),
+            None => String::new(),
+        };
+        let deepest = (1..=self.levels)
+            .take_while(|&d| tree_rays(self.branching, d) <= MAX_WHITTED_TREE as f64)
+            .last()
+            .unwrap_or(1);
+        format!(
+            "`max_depth` = {} with `min_weight` = {} lets one camera ray's Whitted ray tree \
+             grow to {:.3e} rays ({why}, {} levels deep before the weight cut-off); \
+             at most {MAX_WHITTED_TREE} (2^20) are allowed: lower `max_depth` to {deepest} \
+             or raise `min_weight`",
+            s.max_depth, s.min_weight, self.rays, self.levels
+        )
+    }
+}
+
+/// Rays in a full tree of `levels` levels where each ray spawns
+/// `branching`.
+fn tree_rays(branching: u32, levels: u64) -> f64 {
+    match branching {
+        0 => 1.0,
+        1 => levels as f64,
+        b => (f64::from(b).powf(levels as f64) - 1.0) / (f64::from(b) - 1.0),
+    }
+}
+
+impl SceneDescription {
+    /// The largest tree of rays one camera ray can spawn under Whitted's
+    /// rules (`crate::integrator::whitted`): a hit on a material with
+    /// transparency k_t > 0 spawns a refracted ray of weight × k_t, one
+    /// with reflectivity k_r > 0 a reflected ray of weight × k_r (× (k_r +
+    /// k_t) under total internal reflection); no ray of depth `max_depth`
+    /// or more, nor of weight below `min_weight`, is spawned. With f the
+    /// largest k_r + k_t, weights fall at least as f^depth, so below 1 the
+    /// weight cut-off ends every branch after ln(min_weight)/ln(f) levels.
+    pub fn whitted_tree(&self) -> WhittedTree {
+        let s = &self.settings;
+        let mut branching = 0;
+        let mut material = None;
+        let mut factor = 0.0f64;
+        for m in &self.materials {
+            let (kr, kt) = (m.material.reflectivity, m.material.transparency);
+            let b = u32::from(kr > 0.0) + u32::from(kt > 0.0);
+            if b > branching {
+                (branching, material) = (b, Some(m.name.clone()));
+            }
+            if b > 0 {
+                factor = factor.max(f64::from(kr.max(0.0)) + f64::from(kt.max(0.0)));
+            }
+        }
+        let mut levels = u64::from(s.max_depth.max(1));
+        let min_weight = f64::from(s.min_weight);
+        if branching > 0 && factor < 1.0 && min_weight > 0.0 {
+            // Depth d is spawned only if factor^d ≥ min_weight.
+            let by_weight = if factor <= 0.0 {
+                1
+            } else {
+                (min_weight.ln() / factor.ln()).floor().max(0.0) as u64 + 1
+            };
+            levels = levels.min(by_weight);
+        }
+        if branching == 0 {
+            levels = 1;
+        }
+        WhittedTree {
+            rays: tree_rays(branching, levels),
+            levels,
+            branching,
+            material,
+        }
+    }
+}
+
 impl MeshDesc {
     /// The transform's numbers in range, and a box to `fit` to.
     fn check(&self) -> Result<(), String> {
@@ -296,8 +435,69 @@ impl MeshDesc {
         if self.data.positions.iter().any(|p| !p.is_finite()) {
             return Err("`vertices` must be finite".into());
         }
+        let (lo, hi) = self.placed_box();
+        let reach = lo.abs().max(hi.abs()).max_element();
+        if reach.is_nan() || reach > MAX_COORDINATE {
+            return Err(format!(
+                "placed by `fit`, `scale`, `rotate` and `translate`, the mesh reaches \
+                 {reach:e}, beyond ±{MAX_COORDINATE:e}, the largest coordinate raylab's \
+                 geometry may have"
+            ));
+        }
         Ok(())
     }
+
+    /// The box around the placed mesh: its own bounding box's eight
+    /// corners, placed (a linear map keeps the mesh inside their hull).
+    /// Overflow shows as an infinite or NaN corner.
+    fn placed_box(&self) -> (Vec3, Vec3) {
+        let own = self.data.positions.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        );
+        let fit = self.fit.and_then(|size| {
+            fit_box(&self.data.positions).map(|(largest, centre)| (size, largest, centre))
+        });
+        let t = MeshTransform::<f32>::new(
+            V3::from_vec3(self.scale.per_axis()),
+            V3::from_vec3(self.rotate),
+            V3::from_vec3(self.translate),
+            fit,
+        );
+        (0..8).fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), k| {
+                let pick = |bit: u32, a: f32, b: f32| if k & bit == 0 { a } else { b };
+                let corner = Vec3::new(
+                    pick(1, own.0.x, own.1.x),
+                    pick(2, own.0.y, own.1.y),
+                    pick(4, own.0.z, own.1.z),
+                );
+                let p = t.point(V3::from_vec3(corner)).value();
+                // NaN (∞ − ∞) must not be lost by min/max.
+                let p = if p.is_nan() {
+                    Vec3::splat(f32::INFINITY)
+                } else {
+                    p
+                };
+                (lo.min(p), hi.max(p))
+            },
+        )
+    }
+}
+
+/// The message for a place beyond [`MAX_COORDINATE`].
+fn beyond_bound(what: &str, v: Vec3, reach: f32) -> String {
+    let extent = if reach > 0.0 {
+        format!(" (with the object's reach of {reach:e} from it)")
+    } else {
+        String::new()
+    };
+    format!(
+        "`{what}` = {} lies beyond ±{MAX_COORDINATE:e}{extent}, the largest coordinate \
+         raylab's geometry may have (its ray tests would overflow single precision)",
+        ShowVec(v)
+    )
 }
 
 /// What `fit` needs of a mesh's own positions: the largest extent of their

@@ -11,6 +11,7 @@
 pub mod build;
 pub mod description;
 pub mod param;
+pub mod transform;
 
 use crate::accel::{Accel, AccelError, AccelKind, Accelerator};
 use crate::camera::{Camera, CameraError};
@@ -212,7 +213,16 @@ impl Scene {
         let spp = settings.sampler.spp();
         crate::film::memory::check(
             || format!("[image]: a {width}×{height} image at {spp} samples per pixel"),
-            crate::film::memory::render_bytes(width, height, spp, settings.filter != Filter::Box),
+            // The least any render holds (a PNG); `raylab render` checks
+            // again for its output.
+            crate::film::memory::render_bytes(&crate::film::memory::RenderHolds {
+                width,
+                height,
+                spp,
+                keep_samples: settings.filter != Filter::Box,
+                output: crate::film::memory::OutputFormat::Png,
+                threads: 1,
+            }),
         )?;
         let numbers = build::build(desc, &Plain)?;
         let camera = Camera::from_frame(&numbers.camera, width, height)?;

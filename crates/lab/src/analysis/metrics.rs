@@ -158,7 +158,8 @@ pub fn psnr(a: &LinearImage, b: &LinearImage, peak: f64) -> f64 {
 }
 
 /// Largest absolute difference over pixels and channels. NaN when the
-/// shapes differ; 0 for empty images.
+/// shapes differ or any difference is NaN (as the MSE then is: `f64::max`
+/// would skip it); 0 for empty images.
 pub fn max_abs_error(a: &LinearImage, b: &LinearImage) -> f64 {
     if !same_shape(a, b) {
         return f64::NAN;
@@ -166,7 +167,13 @@ pub fn max_abs_error(a: &LinearImage, b: &LinearImage) -> f64 {
     a.iter()
         .zip(b.iter())
         .map(|(&x, &y)| (f64::from(x) - f64::from(y)).abs())
-        .fold(0.0, f64::max)
+        .fold(0.0, |m: f64, e| {
+            if m.is_nan() || e.is_nan() {
+                f64::NAN
+            } else {
+                m.max(e)
+            }
+        })
 }
 
 /// Check that two images can be compared: both RGB, non-empty, same size.
@@ -321,6 +328,13 @@ fn metrics_with_map(
     }
 }
 
+/// The bytes a pixel of two images compared by [`diff_files`] takes at the
+/// peak: both linear images, ꟻLIP's inputs, its colour pipeline and error
+/// map, and the map's statistics. Measured: `raylab diff` of two PNGs
+/// grows by 97 to 103 bytes per pixel beyond the process (crates/cli/tests/
+/// memory.rs checks this bound within 10 %).
+pub const DIFF_BYTES_PER_PIXEL: u128 = 104;
+
 /// Compare the image file `test` against the image file `reference` (PNG or
 /// EXR, read as linear RGB) and, when `error_map` is given, write the ꟻLIP
 /// error map there as a magma PNG. Nothing is written when any step fails.
@@ -332,7 +346,16 @@ pub fn diff_files(
     if let Some(out) = error_map {
         // Checked before the work so a wrong name fails fast.
         check_png_name(out)?;
+        raylab::io::check_outputs(
+            &[("TEST", test), ("REFERENCE", reference)],
+            &[("--out", out)],
+        )?;
     }
+    let (w, h) = raylab::io::image::dimensions(test)?;
+    raylab::film::memory::check(
+        || format!("comparing two {w}×{h} images"),
+        u128::from(w) * u128::from(h) * DIFF_BYTES_PER_PIXEL,
+    )?;
     let a = read_image(test)?;
     let b = read_image(reference)?;
     let map = flip_error_map(&a, &b).map_err(|error| Error::Compare {

@@ -39,7 +39,7 @@ impl Table {
     /// Rows with the wrong number of cells are errors naming the line.
     pub fn read(path: &Path) -> Result<ReadTable, Error> {
         let mut text =
-            std::fs::read_to_string(path).map_err(|e| Error::io(path, FileOp::Read, e))?;
+            raylab::io::input::read_to_string(path, raylab::io::input::InputKind::Table)?;
         let mut dropped = false;
         if !text.is_empty() && !text.ends_with('\n') {
             let keep = text.rfind('\n').map_or(0, |i| i + 1);

@@ -81,6 +81,18 @@ struct ShardDir {
 /// Merge the shards into `opts.out_dir`.
 pub fn merge_shards(opts: &MergeOptions) -> Result<Merged, Error> {
     let clock = Instant::now();
+    // The merged data.csv and meta.json must not replace a shard's.
+    let names: Vec<_> = opts
+        .shards
+        .iter()
+        .map(|d| (format!("the shard {}", d.display()), d.join("data.csv")))
+        .collect();
+    let inputs: Vec<_> = names
+        .iter()
+        .map(|(r, p)| (r.as_str(), p.as_path()))
+        .collect();
+    let merged = opts.out_dir.join("data.csv");
+    raylab::io::check_outputs(&inputs, &[("the merged folder", merged.as_path())])?;
     let shards = read_shards(opts)?;
     let first = &shards[0];
 

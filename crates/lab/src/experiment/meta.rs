@@ -150,7 +150,8 @@ impl Meta {
     /// Read `dir/meta.json`.
     pub fn read(dir: &Path) -> Result<Meta, Error> {
         let path = dir.join(META_FILE);
-        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, FileOp::Read, e))?;
+        let text =
+            raylab::io::input::read_to_string(&path, raylab::io::input::InputKind::Manifest)?;
         serde_json::from_str(&text).map_err(|error| Error::Meta { path, error })
     }
 

@@ -18,7 +18,9 @@ use std::ops::Range;
 /// `step = 1e-9` that would otherwise allocate without bound.
 pub const MAX_VALUES: usize = 100_000;
 
-/// Most runs one sweep may have (the product of its list lengths).
+/// Most runs one sweep may have (the product of its list lengths), and
+/// a manifest's sweeps in all: a plan of a million runs takes a few
+/// hundred megabytes, and no experiment a person reads needs more.
 pub const MAX_RUNS: usize = 1_000_000;
 
 /// A parameter value, range or string template written wrongly: what is
@@ -315,19 +317,39 @@ impl RunPoint {
     }
 }
 
-/// The runs of `sweep`: its parameters merged over `fixed` (a sweep's value
-/// replaces a fixed one of the same name), expanded as a cartesian product
-/// with the first parameter varying slowest, and string templates filled.
-/// Errors carry the byte range they concern.
-pub fn expand_sweep(fixed: &[ManifestParam], sweep: &Sweep) -> Result<Vec<RunPoint>, SweepError> {
+/// `sweep`'s parameters merged over `fixed`: the fixed ones it does not
+/// set, then its own.
+fn sweep_params<'a>(fixed: &'a [ManifestParam], sweep: &'a Sweep) -> Vec<&'a ManifestParam> {
     let mut params: Vec<&ManifestParam> = fixed
         .iter()
         .filter(|f| !sweep.params.iter().any(|p| p.name == f.name))
         .collect();
     params.extend(sweep.params.iter());
-    let count = params
+    params
+}
+
+/// The product of the parameters' value counts; `None` past `usize`.
+fn run_count(params: &[&ManifestParam]) -> Option<usize> {
+    params
         .iter()
         .try_fold(1usize, |n, p| n.checked_mul(p.values.len()))
+}
+
+/// How many runs the sweeps have in all, before any is expanded; `None`
+/// past `usize`.
+pub fn total_runs(fixed: &[ManifestParam], sweeps: &[Sweep]) -> Option<usize> {
+    sweeps.iter().try_fold(0usize, |total, sweep| {
+        total.checked_add(run_count(&sweep_params(fixed, sweep))?)
+    })
+}
+
+/// The runs of `sweep`: its parameters merged over `fixed` (a sweep's value
+/// replaces a fixed one of the same name), expanded as a cartesian product
+/// with the first parameter varying slowest, and string templates filled.
+/// Errors carry the byte range they concern.
+pub fn expand_sweep(fixed: &[ManifestParam], sweep: &Sweep) -> Result<Vec<RunPoint>, SweepError> {
+    let params = sweep_params(fixed, sweep);
+    let count = run_count(&params)
         .filter(|&n| n <= MAX_RUNS)
         .ok_or_else(|| SweepError {
             span: sweep.span.clone(),

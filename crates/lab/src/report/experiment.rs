@@ -19,9 +19,7 @@ pub struct ExperimentReport(pub ExperimentRun);
 impl ExperimentReport {
     /// Run the experiment of the manifest at `manifest`.
     pub fn run(manifest: &Path, opts: &ExperimentOptions) -> Result<Self, Error> {
-        if opts.threads == Some(0) {
-            return Err(Error::Argument("--threads must be at least 1".into()));
-        }
+        crate::check_threads(opts.threads)?;
         run_experiment(manifest, opts).map(Self)
     }
 }

@@ -102,6 +102,7 @@ pub struct GradReport {
 
 impl GradReport {
     pub fn run(opts: &GradOptions) -> Result<Self> {
+        crate::check_threads(opts.threads)?;
         let (source, scene) = diff::load(&opts.scene, &opts.overrides)?;
         let desc = &source.description;
         let params = diff::resolve_all(&opts.params, desc)?;
@@ -121,7 +122,7 @@ impl GradReport {
             .render::<NoStats>(&scene, opts.threads)
             .map_err(Error::Render)?;
         let render_s = start.elapsed().as_secs_f64();
-        write_film_exr(&opts.out_dir.join("image.exr"), &film)?;
+        write_film_exr(&opts.out_dir.join("image.exr"), &film, &film.image())?;
 
         let start = Instant::now();
         let watch = super::progress::Watch::start("derivatives", opts.progress);

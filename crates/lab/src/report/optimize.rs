@@ -94,6 +94,7 @@ impl OptimizeReport {
     }
 
     pub fn run(opts: &OptimizeOptions) -> Result<Self, Error> {
+        crate::check_threads(opts.threads)?;
         let mut spec = load_spec(&opts.spec)?;
         let run = match opts.stop_after {
             Some(0) => return Err(Error::Argument("--stop-after must be at least 1".into())),
@@ -114,6 +115,7 @@ impl OptimizeReport {
                 }
             }
         }
+        check_outputs_of(&spec, &opts.spec, &opts.out_dir)?;
         let problem = Problem::new(spec, opts.threads)?;
         std::fs::create_dir_all(&opts.out_dir)
             .map_err(|e| Error::io(&opts.out_dir, FileOp::CreateFolder, e))?;
@@ -221,6 +223,43 @@ impl OptimizeReport {
             params,
         })
     }
+}
+
+/// The files `optimize` writes into its folder (the figures as PNG and
+/// SVG).
+const OUTPUTS: [&str; 10] = [
+    "target.exr",
+    "target.png",
+    "optimize.csv",
+    "final.toml",
+    "loss.png",
+    "loss.svg",
+    "params.png",
+    "params.svg",
+    "images.png",
+    "images.svg",
+];
+
+/// Refuse an output folder where one of [`OUTPUTS`] is an input: the spec,
+/// its scene or its target image (`-o` set to the spec's own folder would
+/// replace the user's `target.png`).
+fn check_outputs_of(spec: &Spec, spec_path: &Path, dir: &Path) -> Result<(), Error> {
+    let mut inputs = vec![
+        ("the spec", spec_path),
+        ("the spec's scene", spec.source.path.as_path()),
+    ];
+    if let OptimizeTarget::Image(target) = &spec.target {
+        inputs.push(("the spec's target image", target.as_path()));
+    }
+    let outputs: Vec<_> = OUTPUTS
+        .iter()
+        .map(|name| (format!("-o's {name}"), dir.join(name)))
+        .collect();
+    let outputs: Vec<_> = outputs
+        .iter()
+        .map(|(role, p)| (role.as_str(), p.as_path()))
+        .collect();
+    Ok(raylab::io::check_outputs(&inputs, &outputs)?)
 }
 
 /// `DIR/final.toml`: the scene with `theta`, after `done` iterations, the

@@ -9,6 +9,7 @@ use crate::analysis::plot::Heatmap;
 use crate::analysis::{compare, ImageMetrics};
 use crate::Error;
 use raylab::accel::AccelKind;
+use raylab::film::memory::Bytes;
 use raylab::film::Filter;
 use raylab::integrator::{IntegratorKind, Prepared};
 use raylab::io::image::{read_image, write_image, ImageFormat};
@@ -133,6 +134,9 @@ pub struct CacheReport {
 /// What one `raylab render` did and measured.
 #[derive(Clone, Debug)]
 pub struct RenderReport {
+    /// The process's peak memory and what was estimated for it, on the
+    /// CPU (where /proc tells).
+    pub memory: Option<MemoryUse>,
     /// The scene file.
     pub scene: PathBuf,
     /// The image written.
@@ -216,6 +220,34 @@ pub struct GpuUsed {
     pub times: raylab_gpu::GpuTimes,
 }
 
+/// A render's peak resident memory against the estimate checked before it
+/// (`film::memory::render_bytes` over what the process held after loading
+/// the scene).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MemoryUse {
+    /// Bytes estimated.
+    pub estimated: u128,
+    /// Bytes measured (the process's `VmHWM`).
+    pub peak: u128,
+}
+
+/// What rendering `scene` to `output` on `threads` holds beyond the
+/// loaded scene.
+fn render_holds(scene: &raylab::scene::Scene, output: &std::path::Path, threads: usize) -> u128 {
+    use raylab::film::memory::{render_bytes, OutputFormat, RenderHolds};
+    render_bytes(&RenderHolds {
+        width: scene.camera.width,
+        height: scene.camera.height,
+        spp: scene.settings.sampler.spp(),
+        keep_samples: scene.settings.filter != Filter::Box,
+        output: match ImageFormat::from_path(output) {
+            Some(ImageFormat::Exr) => OutputFormat::Exr,
+            _ => OutputFormat::Png,
+        },
+        threads,
+    })
+}
+
 impl RenderReport {
     /// Render as `opts` says: load the scene (timed), read the reference
     /// (before rendering, so a bad one fails fast), prepare the integrator
@@ -229,12 +261,30 @@ impl RenderReport {
                 opts.output.display()
             )));
         }
-        if opts.threads == Some(0) {
-            return Err(Error::Argument("--threads must be at least 1".into()));
-        }
+        crate::check_threads(opts.threads)?;
+        let mut inputs = vec![("the scene", opts.scene.as_path())];
+        inputs.extend(opts.reference.as_deref().map(|r| ("--reference", r)));
+        let mut outputs = vec![("--output", opts.output.as_path())];
+        outputs.extend(opts.spp_map.as_deref().map(|m| ("--spp-map", m)));
+        raylab::io::check_outputs(&inputs, &outputs)?;
         let t0 = Instant::now();
         let scene = load_scene(&opts.scene, &opts.overrides)?;
         let load_s = t0.elapsed().as_secs_f64();
+        let threads = opts.threads.unwrap_or_else(rayon::current_num_threads);
+        let holds = render_holds(&scene, &opts.output, threads);
+        raylab::film::memory::check(
+            || {
+                format!(
+                    "rendering {}×{} pixels at {} samples per pixel to {}",
+                    scene.camera.width,
+                    scene.camera.height,
+                    scene.settings.sampler.spp(),
+                    opts.output.display()
+                )
+            },
+            holds,
+        )?;
+        let resident_before = raylab::film::memory::resident_bytes().map(|(now, _)| now);
         let integrator = opts.integrator;
         // Read the reference before rendering, so a bad one fails fast.
         let reference = opts
@@ -290,7 +340,9 @@ impl RenderReport {
             }),
         };
         match ImageFormat::from_path(&opts.output) {
-            Some(ImageFormat::Exr) => raylab::io::image::write_film_exr(&opts.output, &film),
+            Some(ImageFormat::Exr) => {
+                raylab::io::image::write_film_exr(&opts.output, &film, &image)
+            }
             _ => write_image(&opts.output, &image),
         }
         .map_err(|e| Error::writing(&opts.output, e))?;
@@ -320,7 +372,14 @@ impl RenderReport {
             }),
             _ => None,
         };
+        let memory = resident_before
+            .zip(raylab::film::memory::resident_bytes())
+            .map(|(before, (_, peak))| MemoryUse {
+                estimated: before + holds,
+                peak,
+            });
         Ok(Self {
+            memory,
             scene: opts.scene.clone(),
             output: opts.output.clone(),
             width: scene.camera.width,
@@ -423,6 +482,14 @@ impl fmt::Display for RenderReport {
             self.render_s,
             c.rays() as f64 / self.render_s / 1e6
         )?;
+        if let Some(m) = &self.memory {
+            writeln!(
+                f,
+                "memory     peak {} (estimated {} before the render)",
+                Bytes(m.peak),
+                Bytes(m.estimated)
+            )?;
+        }
         #[cfg(feature = "gpu")]
         if let Some(GpuUsed { adapter, times: t }) = &self.gpu {
             writeln!(f, "device     GPU: {adapter}")?;

@@ -166,9 +166,7 @@ pub struct AccelReport {
 /// Run the stats command: measure every accelerator, print the table to
 /// `w` and write the heatmaps. Returns the measurements.
 pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>, Error> {
-    if opts.threads == Some(0) {
-        return Err(Error::Argument("--threads must be at least 1".into()));
-    }
+    crate::check_threads(opts.threads)?;
     let overrides = Overrides {
         width: opts.width,
         height: opts.height,

@@ -51,6 +51,12 @@ impl ValidateReport {
     /// Load the mesh or scene, trace every ray set both ways, and write
     /// the CSV and figures asked for.
     pub fn run(opts: &ValidateOptions) -> Result<Self, Error> {
+        let inputs: Vec<_> = [("--mesh", &opts.mesh), ("--scene", &opts.scene)]
+            .into_iter()
+            .filter_map(|(role, p)| p.as_deref().map(|p| (role, p)))
+            .collect();
+        let outputs: Vec<_> = opts.csv.iter().map(|p| ("--csv", p.as_path())).collect();
+        raylab::io::check_outputs(&inputs, &outputs)?;
         let input = match (&opts.mesh, &opts.scene) {
             (Some(mesh), _) => Input::from_mesh(mesh)?,
             (None, Some(scene)) => Input::from_scene(scene)?,

@@ -206,6 +206,24 @@ pub fn default_accels(n: usize) -> Vec<AccelKind> {
     v
 }
 
+/// The ray sets [`ray_sets`] can make.
+const SETS: u128 = 8;
+
+/// Refuse `rays` rays per set that this machine cannot hold: every set's
+/// rays, one set's answers at a time, and per set and accelerator the
+/// |Δt|/t and normal angles the percentiles are taken from.
+fn check_memory(rays: usize, accels: usize) -> Result<(), Error> {
+    let n = rays as u128;
+    let needed = SETS * n * size_of::<Ray>() as u128
+        + n * size_of::<Answers>() as u128
+        + SETS * accels as u128 * n * 2 * size_of::<f32>() as u128;
+    raylab::film::memory::check(
+        || format!("--rays {rays} ({SETS} ray sets, {accels} accelerators)"),
+        needed,
+    )?;
+    Ok(())
+}
+
 /// Generate the ray sets for an input: `random`, `surface`, `camera`,
 /// `inside` (closed meshes), `edges`, `vertices`, `grazing` (triangles),
 /// `inside-quadrics` (spheres and ellipsoids). Sets that do not apply are
@@ -383,6 +401,7 @@ pub fn validate(input: &Input, opts: &ValidationOptions) -> Result<ValidationRep
         )
         .map(|(_, h)| h.t)
     };
+    check_memory(opts.rays, kinds.len())?;
     let sets = ray_sets(input, &topology, opts, first_hit);
     let mut reports = Vec::new();
     let mut worst = Vec::new();

@@ -237,7 +237,7 @@ fn made_exrs(dir: &Path) -> Vec<Seed> {
         }
     }
     let p = dir.join("seed-film.exr");
-    raylab::io::image::write_film_exr(&p, &film).expect("write EXR seed");
+    raylab::io::image::write_film_exr(&p, &film, &film.image()).expect("write EXR seed");
     out.push(made(&p, "4×3 film by io::image::write_film_exr"));
 
     let (w, h) = (16usize, 12usize);

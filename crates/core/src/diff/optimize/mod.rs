@@ -347,7 +347,18 @@ impl Problem {
         };
         let start = Instant::now();
         problem.target = match &problem.spec.target {
-            OptimizeTarget::Image(path) => crate::io::image::read_image(path)?,
+            OptimizeTarget::Image(path) => {
+                let image = crate::io::image::read_image(path)?;
+                let bad = image.indexed_iter().find(|(_, v)| !v.is_finite());
+                if let Some(((y, x, _), v)) = bad {
+                    return Err(crate::io::InputError::file(
+                        path,
+                        format!("pixel ({x}, {y}) is {v}: a target image must be finite"),
+                    )
+                    .into());
+                }
+                image
+            }
             OptimizeTarget::Values { values, sampler } => {
                 let mut desc = problem.spec.source.description.clone();
                 for &(p, v) in values {
@@ -503,7 +514,25 @@ impl Problem {
 
     /// The scene file's text with parameters `theta`, for a file written
     /// in `folder`: relative mesh paths are rewritten to stay valid there.
+    /// Parameters that leave the scene invalid (a radius stepped below
+    /// zero within the spec's bounds, a NaN) are an error naming them, so
+    /// no scene file that does not load is written.
     pub fn text_for(&self, theta: &[f64], folder: &Path) -> Result<String, DiffError> {
+        self.description_at(theta).check().map_err(|e| {
+            DiffError::Optimize(format!(
+                "the parameters {} leave the scene invalid ({}: {}); the last valid scene \
+                 was kept",
+                self.spec
+                    .params
+                    .iter()
+                    .zip(theta)
+                    .map(|(p, v)| format!("{} = {v}", p.name))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                e.entity,
+                e.message
+            ))
+        })?;
         let text = self.text_at(theta)?;
         let bad = |e: toml::ser::Error| DiffError::Optimize(e.to_string());
         let mut table: toml::Table =

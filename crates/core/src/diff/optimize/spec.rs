@@ -182,8 +182,7 @@ fn run_overrides(width: Option<u32>, height: Option<u32>, sampler: Sampler) -> O
 
 /// Read and check the spec at `path`.
 pub fn load_spec(path: &Path) -> Result<Spec, InputError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| InputError::file(path, format!("cannot read optimisation spec: {e}")))?;
+    let text = crate::io::input::read_to_string(path, crate::io::input::InputKind::Manifest)?;
     parse_spec(&text, path)
 }
 

@@ -13,7 +13,8 @@
 //! polylines (`l`) and points (`p`) are not surfaces, so they are left out.
 
 use super::{
-    check_not_empty, finish, finite_vertex, parse_word, read_file, show, words, Lines, MeshData,
+    check_not_empty, finish, finite_vertex, parse_word, read_file, show, vertex_problem, words,
+    Lines, MeshData,
 };
 use crate::io::InputError;
 use glam::Vec3;
@@ -188,12 +189,7 @@ fn check_position<'a>(values: impl Iterator<Item = &'a [u8]>) -> Result<(), Stri
             ))
         }
     };
-    finite_vertex(0, p).map(|_| ()).map_err(|_| {
-        format!(
-            "vertex has a non-finite coordinate ({}, {}, {})",
-            p.x, p.y, p.z
-        )
-    })
+    vertex_problem(p).map_or(Ok(()), |why| Err(format!("vertex {why}")))
 }
 
 /// Check the `v`, `v/vt`, `v//vn` or `v/vt/vn` references of an `f` or `l`

@@ -16,7 +16,7 @@ pub mod validate;
 pub use parse::{load_manifest, parse_manifest};
 
 use super::study::{DynStudy, StudyKind, StudySettings};
-use super::sweep::{expand_sweep, ManifestParam, RunPoint, Sweep, Value};
+use super::sweep::{expand_sweep, ManifestParam, RunPoint, Sweep, Value, MAX_RUNS};
 use crate::analysis::plot::LegendPosition;
 use raylab::io::InputError;
 use serde::{Deserialize, Serialize};
@@ -305,6 +305,16 @@ impl Manifest {
     /// columns of `data.csv`.
     pub fn plan(&self) -> Result<Plan, InputError> {
         let study = self.study();
+        let total = super::sweep::total_runs(&self.fixed, &self.sweeps);
+        if total.is_none_or(|n| n > MAX_RUNS) {
+            return Err(InputError::file(
+                &self.path,
+                format!(
+                    "the sweeps have {} runs in all, more than {MAX_RUNS}; split the manifest",
+                    total.map_or("too many".to_string(), |n| n.to_string())
+                ),
+            ));
+        }
         let mut runs = Vec::new();
         for sweep in &self.sweeps {
             let expanded =

@@ -14,6 +14,7 @@ use crate::analysis::plot::LegendPosition;
 use crate::experiment::params::quoted;
 use crate::experiment::study::{self, KINDS};
 use crate::experiment::sweep::{expand_values, ManifestParam, Sweep, ValueError};
+use raylab::integrator::MAX_THREADS;
 use raylab::io::{line_col, InputError, Place};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -103,8 +104,7 @@ fn yes() -> bool {
 
 /// Read and check a manifest. Errors name the file, line and column.
 pub fn load_manifest(path: &Path) -> Result<Manifest, InputError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| InputError::file(path, format!("cannot read manifest: {e}")))?;
+    let text = raylab::io::input::read_to_string(path, raylab::io::input::InputKind::Manifest)?;
     parse_manifest(&text, path)
 }
 
@@ -151,8 +151,14 @@ pub fn parse_manifest(text: &str, path: &Path) -> Result<Manifest, InputError> {
         None => DEFAULT_REPEATS,
     };
     let threads = match &file.threads {
-        Some(t) if *t.get_ref() == 0 => {
-            return Err(at(t.span(), "`threads` must be at least 1".into()))
+        Some(t) if *t.get_ref() == 0 || *t.get_ref() as usize > MAX_THREADS => {
+            return Err(at(
+                t.span(),
+                format!(
+                    "`threads` must be from 1 to {MAX_THREADS}, got {}",
+                    t.get_ref()
+                ),
+            ))
         }
         Some(t) => Some(*t.get_ref() as usize),
         None => None,

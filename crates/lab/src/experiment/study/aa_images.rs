@@ -342,7 +342,7 @@ fn write_profile(path: &Path, profile: &[(f64, f64)]) -> Result<(), Error> {
 
 /// Read a profile written by [`write_profile`].
 fn read_profile(path: &Path) -> Result<Vec<(f64, f64)>, Error> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, FileOp::Read, e))?;
+    let text = raylab::io::input::read_to_string(path, raylab::io::input::InputKind::Table)?;
     text.lines()
         .enumerate()
         .skip(1)

@@ -290,7 +290,7 @@ fn reference_image(
                 let (film, _) = integrator
                     .render::<NoStats>(&s, None)
                     .map_err(Error::Render)?;
-                raylab::io::image::write_film_exr(&path, &film)?;
+                raylab::io::image::write_film_exr(&path, &film, &film.image())?;
             }
             path
         }
