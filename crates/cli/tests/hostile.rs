@@ -98,6 +98,7 @@ impl Inputs {
                 "[materials]\nm.color = [0.5, 0.5, 0.5]",
             ),
         );
+        inputs.text("image.exr", BASE);
         inputs.text("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
         inputs.text("far.obj", "v -1e38 0 0\nv 1e38 0 0\nv 0 1 0\nf 1 2 3\n");
         inputs.text(
@@ -128,6 +129,13 @@ impl Inputs {
              max_depth = { from = 0, to = 599, step = 1 }\n\
              [[sweep]]\nname = \"b\"\nseed = { from = 1, to = 1000, step = 1 }\n\
              max_depth = { from = 0, to = 599, step = 1 }\n",
+        );
+        std::fs::create_dir(inputs.path("exp")).unwrap();
+        inputs.text(
+            "exp/data.csv",
+            "name = \"t\"\nkind = \"render_cost\"\ndescription = \"clobbers itself\"\n\
+             [fixed]\nscene = \"../ok.toml\"\n[[sweep]]\nname = \"s\"\n\
+             sampler = [\"centre\"]\n",
         );
         std::fs::create_dir(inputs.path("folder.toml")).unwrap();
         for fifo in ["fifo.toml", "fifo.obj", "fifo.png"] {
@@ -394,6 +402,62 @@ fn cases() -> Vec<(Vec<&'static str>, Expect)> {
     cases.push((
         vec!["experiment", "many.toml", "--out", "exp"],
         Refused("the sweeps have 1200000 runs in all, more than 1000000"),
+    ));
+    // The counters of `stats` and the planes of `grad`, larger than the
+    // machine where its film alone is not (guarded like the flood fill:
+    // the estimate depends on the machine only through what it has).
+    // Bytes per pixel below the estimates: stats counts 292, grad here
+    // about 1500 (16 parameters' moments and planes in its first pass).
+    let available = raylab::film::memory::available_bytes();
+    if 12000u128 * 12000 * 290 > available {
+        cases.push((
+            vec![
+                "stats", "ok.toml", "--width", "12000", "--height", "12000", "--out", "st",
+            ],
+            Refused("counting the costs of 12000×12000 pixels would need"),
+        ));
+    }
+    if 6000u128 * 6000 * 1400 > available {
+        let mut grad = vec![
+            "grad", "ok.toml", "-o", "grad", "--width", "6000", "--height", "6000",
+        ];
+        for p in [
+            "sphere[0].center",
+            "sphere[0].radius",
+            "materials.m.color",
+            "light[0].position",
+            "camera.eye",
+            "camera.look_at",
+            "camera.fov",
+        ] {
+            grad.extend(["--param", p]);
+        }
+        cases.push((
+            grad,
+            Refused("the derivatives of 6000×6000 pixels with respect to 17 parameters would need"),
+        ));
+    }
+    cases.push((
+        vec![
+            "spectrum",
+            "--sampler",
+            "sobol:65536",
+            "--sets",
+            "100000",
+            "--freq",
+            "512",
+            "--out",
+            "sp",
+        ],
+        Refused("more than 2^40"),
+    ));
+    cases.push((
+        vec!["experiment", "exp/data.csv", "--out", "exp"],
+        Refused("data.csv would overwrite the manifest"),
+    ));
+    cases.push((
+        vec!["grad", "image.exr", "-o", ".", "--param", "camera.fov"],
+        Refused("an image would overwrite the scene"),
     ));
     // Valid TOML the parser once refused.
     cases.push((vec!["render", "dotted.toml", "-o", "x.png"], Runs("")));

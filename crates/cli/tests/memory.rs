@@ -5,8 +5,9 @@
 //! (`VmHWM`). The estimate may not be below the peak (a check that
 //! undercounts lets an allocation abort the process) and not more than
 //! 10 % above it (one that overcounts refuses renders the machine could
-//! do). `raylab diff`'s bytes per pixel are checked against the growth of
-//! its peak (`wait4`'s `ru_maxrss`) between two sizes.
+//! do). `raylab diff`'s, `raylab stats`' and `raylab grad`'s estimates
+//! are checked per pixel against the growth of their peak (`wait4`'s
+//! `ru_maxrss`) between two sizes, within the same bounds.
 //!
 //! Why not `ru_maxrss` for the render too: a child made by `fork` starts
 //! with the test process's memory, and Linux keeps that in the child's
@@ -173,4 +174,156 @@ fn the_diff_estimate_bounds_its_growth_per_pixel_within_ten_percent() {
         (per_pixel..=1.1 * per_pixel).contains(&counted),
         "diff grows by {per_pixel:.1} bytes a pixel; the check counts {counted}"
     );
+}
+
+/// How much a command's peak grows per pixel between two sizes, against
+/// how much its estimate grows: `args(n)` runs it at n × n pixels and
+/// `estimate(n)` is what its check counts there. The growth counted may
+/// not be below the growth measured, nor more than 10 % above it.
+fn check_growth(
+    what: &str,
+    sizes: [u32; 2],
+    args: impl Fn(&str) -> Vec<String>,
+    estimate: impl Fn(u32) -> u128,
+) {
+    let mut measured = Vec::new();
+    for n in sizes {
+        let size = n.to_string();
+        let args = args(&size);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (_, peak) = run_measured(&args);
+        measured.push(peak as f64);
+    }
+    let pixels = |n: u32| f64::from(n) * f64::from(n);
+    let delta = pixels(sizes[1]) - pixels(sizes[0]);
+    let per_pixel = (measured[1] - measured[0]) / delta;
+    let counted = (estimate(sizes[1]) as f64 - estimate(sizes[0]) as f64) / delta;
+    eprintln!("{what}: grows by {per_pixel:.1} bytes a pixel, the check counts {counted:.1}");
+    assert!(
+        (per_pixel..=1.1 * per_pixel).contains(&counted),
+        "{what} grows by {per_pixel:.1} bytes a pixel; the check counts {counted:.1}"
+    );
+}
+
+/// `raylab stats` ([`stats_bytes`]): one accelerator, one thread.
+///
+/// [`stats_bytes`]: raylab_lab::report::stats::stats_bytes
+#[test]
+fn the_stats_estimate_bounds_its_growth_per_pixel_within_ten_percent() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let out = dir.path().join("maps");
+    let (scene_arg, out_arg) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    check_growth(
+        "stats",
+        [1000, 1600],
+        |n| {
+            [
+                "stats",
+                scene_arg,
+                "--accel",
+                "bvh",
+                "--width",
+                n,
+                "--height",
+                n,
+                "--threads",
+                "1",
+                "--out",
+                out_arg,
+            ]
+            .map(String::from)
+            .to_vec()
+        },
+        |n| {
+            let overrides = raylab::io::scene_file::Overrides {
+                width: Some(n),
+                height: Some(n),
+                ..Default::default()
+            };
+            let scene = raylab::io::scene_file::load_scene(&scene, &overrides).unwrap();
+            raylab_lab::report::stats::stats_bytes(&scene, 1)
+        },
+    );
+}
+
+/// `raylab grad` ([`GradReport::memory`]), the interior derivative
+/// (whose planes are all written; the boundary term's are counted whole
+/// and written only where curves cross them): a colour's three
+/// components (one pass of four-wide duals) under Whitted, and the
+/// sphere's radius and centre (four, with rim zones) under the path
+/// tracer's `direct`.
+///
+/// [`GradReport::memory`]: raylab_lab::report::grad::GradReport::memory
+#[test]
+fn the_grad_estimate_bounds_its_growth_per_pixel_within_ten_percent() {
+    use raylab_lab::report::grad::{GradOptions, GradReport};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let out = dir.path().join("grad");
+    let (scene_arg, out_arg) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    let cases: [(&str, &[&str], &str, raylab::diff::Visibility); 2] = [
+        (
+            "whitted",
+            &["materials.m.color"],
+            "interior",
+            raylab::diff::Visibility::Interior,
+        ),
+        (
+            "direct",
+            &["sphere[0].radius", "sphere[0].center"],
+            "interior",
+            raylab::diff::Visibility::Interior,
+        ),
+    ];
+    for (integrator, params, visibility, vis) in cases {
+        check_growth(
+            &format!("grad {integrator} {params:?} {visibility}"),
+            [700, 1100],
+            |n| {
+                let mut args: Vec<String> = [
+                    "grad",
+                    scene_arg,
+                    "--width",
+                    n,
+                    "--height",
+                    n,
+                    "--threads",
+                    "1",
+                    "--integrator",
+                    integrator,
+                    "--visibility",
+                    visibility,
+                    "--output",
+                    out_arg,
+                ]
+                .map(String::from)
+                .to_vec();
+                for p in params {
+                    args.extend(["--param".to_string(), p.to_string()]);
+                }
+                args
+            },
+            |n| {
+                GradReport::memory(&GradOptions {
+                    scene: scene.clone(),
+                    out_dir: out.clone(),
+                    overrides: raylab::io::scene_file::Overrides {
+                        width: Some(n),
+                        height: Some(n),
+                        ..Default::default()
+                    },
+                    integrator: raylab::integrator::IntegratorKind::parse(integrator).unwrap(),
+                    params: params.iter().map(|p| p.to_string()).collect(),
+                    check: None,
+                    visibility: vis,
+                    threads: Some(1),
+                    progress: false,
+                })
+                .unwrap()
+            },
+        );
+    }
 }

@@ -356,13 +356,8 @@ fn spectrum_command_writes_files_and_rejects_bad_args() {
 
 /// The `aa_patterns` study: a row per sampler with its summary, per-run
 /// files, and the overlaid radial curves per sample count.
-#[test]
-fn aa_patterns_study_runs() {
-    let dir = tempfile::tempdir().unwrap();
-    let manifest = dir.path().join("aa.toml");
-    std::fs::write(
-        &manifest,
-        r#"name = "aa"
+/// A small `aa_patterns` study with a bar figure of its samplers.
+const AA_MANIFEST: &str = r#"name = "aa"
 kind = "aa_patterns"
 threads = 1
 [fixed]
@@ -378,9 +373,35 @@ kind = "bar"
 x = "sampler"
 y = "low_freq_power"
 title = "low-frequency power"
-"#,
+"#;
+
+/// A line figure over a column of names (the samplers) has no x to draw
+/// them at: an error naming the column and a value, not an empty chart.
+#[test]
+fn a_line_figure_over_text_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = dir.path().join("aa.toml");
+    std::fs::write(
+        &manifest,
+        AA_MANIFEST.replace("kind = \"bar\"", "kind = \"line\""),
     )
     .unwrap();
+    let opts = ExperimentOptions {
+        out_dir: Some(dir.path().join("out")),
+        ..ExperimentOptions::default()
+    };
+    let e = run_experiment(&manifest, &opts).unwrap_err().to_string();
+    assert!(
+        e.contains("x column `sampler` holds no number in the 4 rows drawn (e.g. `ogss:2`)"),
+        "{e}"
+    );
+}
+
+#[test]
+fn aa_patterns_study_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = dir.path().join("aa.toml");
+    std::fs::write(&manifest, AA_MANIFEST).unwrap();
     let opts = ExperimentOptions {
         out_dir: Some(dir.path().join("out")),
         ..ExperimentOptions::default()

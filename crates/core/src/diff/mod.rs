@@ -52,7 +52,7 @@ pub use check::{
 };
 pub use params::{default_step, resolve, resolve_all, MAX_PARAMS};
 pub use planes::Planes;
-pub use render::{check_supported, render_gradients, GradientRender, Gradients};
+pub use render::{check_supported, gradient_bytes, render_gradients, GradientRender, Gradients};
 pub use view::DualScene;
 
 use crate::camera::CameraError;
@@ -104,6 +104,9 @@ pub enum DiffError {
     /// scene the iterate leaves invalid, results that cannot be written).
     #[error("{0}")]
     Optimize(String),
+    /// Derivative planes that would not fit in memory.
+    #[error(transparent)]
+    Memory(#[from] crate::film::memory::MemoryError),
 }
 
 /// Not `#[from]`: the variant's message already holds the camera's, so

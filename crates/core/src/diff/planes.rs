@@ -61,10 +61,27 @@ impl Planes {
         samples: f64,
         spread: Spread,
     ) {
-        let var = |s: &Moments| match spread {
-            Spread::Samples => s.variance(samples),
-            Spread::Mean => s.variance_of_mean(samples),
-        } as f32;
+        self.add_pixel_scaled(pixel, n, m, samples, spread, 1.0);
+    }
+
+    /// [`Self::add_pixel`] with the spreads times `spread_scale` (as
+    /// [`Self::add_scaled`] scales another term's).
+    pub fn add_pixel_scaled<const K: usize>(
+        &mut self,
+        pixel: usize,
+        n: usize,
+        m: &PixelMoments<K>,
+        samples: f64,
+        spread: Spread,
+        spread_scale: f32,
+    ) {
+        let var = |s: &Moments| {
+            spread_scale
+                * match spread {
+                    Spread::Samples => s.variance(samples),
+                    Spread::Mean => s.variance_of_mean(samples),
+                } as f32
+        };
         for k in 0..n {
             for c in 0..3 {
                 self.mean[k][3 * pixel + c] += m.rgb[k][c].mean(samples) as f32;

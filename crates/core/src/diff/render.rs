@@ -150,11 +150,83 @@ pub struct GradientRender<'a> {
     pub threads: Option<usize>,
 }
 
+/// The K of the pass that carries `n` parameters (at most [`MAX_K`]).
+fn pass_width(n: usize) -> usize {
+    match n {
+        0..=2 => n.max(1),
+        3 | 4 => 4,
+        5..=8 => 8,
+        _ => MAX_K,
+    }
+}
+
+/// What [`render_gradients`] holds at its peak, in the pass where it is
+/// largest: the derivative planes of the parameters of the passes before
+/// ([`Planes`]: mean, variance and grey variance, 28 bytes per pixel
+/// each), twice with `Full` visibility (the boundary term's own are kept
+/// apart); each pixel's [`PixelMoments`] of the pass's K duals beside the
+/// pass's planes (the rim zones add into them), then those beside the
+/// boundary term's and, for the path tracer, the vertex term's planes and
+/// per-pixel moments; with `Full` visibility under Whitted, a curved
+/// mirror's grid at its largest
+/// ([`super::boundary::curved::grid_bytes`]); and the worker threads.
+/// Measured against peak resident memory in crates/cli/tests/memory.rs
+/// (within +10 %/−0 % with the interior derivative). The boundary term's
+/// planes and the grid are counted whole: the pages of a plane no curve
+/// crosses are never written, so never resident, and the peak is lower
+/// by up to their size; the grid's bound is its largest, rarely reached.
+pub fn gradient_bytes(r: &GradientRender<'_>) -> u128 {
+    use crate::film::memory::THREAD_BYTES;
+    use std::mem::size_of;
+    let cam = &r.scene.camera;
+    let pixels = u128::from(cam.width) * u128::from(cam.height);
+    let plane = (7 * size_of::<f32>()) as u128;
+    let full = r.visibility == Visibility::Full;
+    let path = full && r.integrator.path_tracer().is_some();
+    // Pass by pass: the planes of the passes before (twice with the
+    // boundary term's), the pass's own planes, beside first its per-pixel
+    // moments (dropped once the planes hold them), then the boundary
+    // term's; the peak is the largest.
+    let mut peak = 0;
+    for (i, chunk) in r.params.chunks(MAX_K).enumerate() {
+        let kept = (i * MAX_K) as u128 * plane * if full { 2 } else { 1 };
+        let m = chunk.len() as u128;
+        let moments = (4 * pass_width(chunk.len()) * size_of::<crate::math::Moments>()) as u128;
+        let mut boundary = 0;
+        if full {
+            boundary += m * plane;
+        }
+        if path {
+            boundary += m * plane + moments + size_of::<super::BoundaryStats>() as u128;
+        }
+        peak = peak.max(kept + m * plane + moments.max(boundary));
+    }
+    let grid = if full && matches!(r.integrator, IntegratorKind::Whitted) {
+        super::boundary::curved::grid_bytes(r.scene)
+    } else {
+        0
+    };
+    let threads = r.threads.unwrap_or_else(rayon::current_num_threads).max(1) as u128;
+    pixels * peak + grid + threads * THREAD_BYTES
+}
+
 /// Render the derivatives of `r.scene` with respect to `r.params`: the
 /// interior derivative, plus the boundary term with `Full` visibility.
-/// The result is the same on any number of threads.
+/// The result is the same on any number of threads. Refused before any
+/// work when [`gradient_bytes`] exceeds the memory available.
 pub fn render_gradients(r: &GradientRender<'_>) -> Result<Gradients, DiffError> {
     check_supported(r.scene, &r.integrator)?;
+    crate::film::memory::check(
+        || {
+            format!(
+                "the derivatives of {}×{} pixels with respect to {} parameters",
+                r.scene.camera.width,
+                r.scene.camera.height,
+                r.params.len()
+            )
+        },
+        gradient_bytes(r),
+    )?;
     let cam = &r.scene.camera;
     let mut out = Gradients {
         width: cam.width,
@@ -171,11 +243,11 @@ pub fn render_gradients(r: &GradientRender<'_>) -> Result<Gradients, DiffError> 
             params: chunk,
             ..*r
         };
-        let mut result = match chunk.len() {
+        let mut result = match pass_width(chunk.len()) {
             1 => run_pass::<1>(&pass)?,
             2 => run_pass::<2>(&pass)?,
-            3 | 4 => run_pass::<4>(&pass)?,
-            5..=8 => run_pass::<8>(&pass)?,
+            4 => run_pass::<4>(&pass)?,
+            8 => run_pass::<8>(&pass)?,
             _ => run_pass::<16>(&pass)?,
         };
         if let Some(b) = result.boundary {
@@ -262,9 +334,18 @@ fn run_pass<const K: usize>(r: &GradientRender<'_>) -> Result<Pass, DiffError> {
             planes.add_pixel(py * w + px, n, sums, f64::from(spp), Spread::Samples);
         }
     }
+    drop(rows);
     // The rim zones the pixel samples left out.
-    let rim = rim_term(&view, &rims, n, integrator, spp, seed, r.threads);
-    planes.add_scaled(&rim.planes, spp as f32);
+    let rim = rim_term(
+        &view,
+        &rims,
+        n,
+        integrator,
+        spp,
+        seed,
+        r.threads,
+        &mut planes,
+    );
     let boundary = (r.visibility == Visibility::Full).then(|| {
         let mut b = boundary_term(&view, params, integrator, spp as f32, seed, r.threads);
         // What paths meet after the camera ray (`direct`, `path:K`).
@@ -276,6 +357,6 @@ fn run_pass<const K: usize>(r: &GradientRender<'_>) -> Result<Pass, DiffError> {
     Ok(Pass {
         planes,
         boundary,
-        rim: rim.stats,
+        rim,
     })
 }

@@ -296,14 +296,6 @@ impl Rims {
     }
 }
 
-/// The rim zones' part of the interior derivative: per parameter, per
-/// pixel and channel, the mean and the variance of the mean; per pixel the
-/// variance of the channel mean; and the counters.
-pub struct RimTerm {
-    pub planes: Planes,
-    pub stats: RimStats,
-}
-
 /// The point of viewing cosine `c` at angle `psi` about the axis on the
 /// sphere (centre `centre`, radius `r`) seen from `eye`, over any
 /// [`Real`].
@@ -325,7 +317,11 @@ fn rim_point<R: Real>(eye: Vec3, centre: Vec3, r: f32, psi: R, c: R) -> V3<R> {
 
 /// The rim term of every sphere in `rims`, with `spp` pixel samples per
 /// pixel setting the density; seeded by `seed`, the same for any number
-/// of `threads`.
+/// of `threads`. Added into the pixel samples' `planes` (per parameter,
+/// per pixel and channel, the mean, and the variance of the mean times
+/// `spp`, the spread the pixel samples' planes hold; per pixel the same
+/// for the channel mean); returns the counters.
+#[allow(clippy::too_many_arguments)]
 pub fn rim_term<const K: usize>(
     view: &DualScene<'_, K>,
     rims: &Rims,
@@ -334,14 +330,12 @@ pub fn rim_term<const K: usize>(
     spp: u32,
     seed: u64,
     threads: Option<usize>,
-) -> RimTerm {
+    planes: &mut Planes,
+) -> RimStats {
     let start = Instant::now();
     let scene = view.scene();
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let mut out = RimTerm {
-        planes: Planes::zeros(n, w, h),
-        stats: RimStats::default(),
-    };
+    let mut stats = RimStats::default();
     let seed = SplitMix64::mix(seed ^ 0x0052_494D_5A4F_4E45);
     for view_ in &rims.views {
         // The silhouette's film length sets the samples.
@@ -363,8 +357,8 @@ pub fn rim_term<const K: usize>(
         if samples == 0 {
             continue;
         }
-        out.stats.spheres += 1;
-        out.stats.samples += samples;
+        stats.spheres += 1;
+        stats.samples += samples;
         let via = view_.via.map_or(0, |m| m as u64 + 1);
         let sphere_seed = SplitMix64::mix(seed ^ u64::from(view_.prim) ^ (via << 32));
         let chunks: Vec<(SparseSums<K>, u64, u64)> = in_pool(threads, || {
@@ -407,14 +401,14 @@ pub fn rim_term<const K: usize>(
         let mut all = SparseSums::<K>::new(n);
         for (sums, landed, dropped) in chunks {
             all.merge(sums);
-            out.stats.landed += landed;
-            out.stats.dropped += dropped;
+            stats.landed += landed;
+            stats.dropped += dropped;
         }
         let samples = u32::try_from(samples).unwrap_or(u32::MAX);
-        all.add_to(&mut out.planes, samples);
+        all.add_to_scaled(planes, samples, spp as f32);
     }
-    out.stats.seconds = start.elapsed().as_secs_f64();
-    out
+    stats.seconds = start.elapsed().as_secs_f64();
+    stats
 }
 
 #[cfg(test)]

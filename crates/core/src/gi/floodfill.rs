@@ -405,10 +405,12 @@ impl FloodFill {
         self.advance::<true>(threads)
     }
 
-    /// Run [`FloodFillConfig::steps_per_frame`] steps.
-    pub fn frame(&mut self, threads: Threads) {
+    /// Run [`FloodFillConfig::steps_per_frame`] steps, calling
+    /// `after_step` after each (a progress count).
+    pub fn frame(&mut self, threads: Threads, mut after_step: impl FnMut()) {
         for _ in 0..self.config.steps_per_frame {
             self.step(threads);
+            after_step();
         }
     }
 

@@ -242,15 +242,22 @@ impl FloodFillIntegrator {
         let mut cache = FloodFill::new(&grid, settings.config, direct)?;
         let build_s = start.elapsed().as_secs_f64();
         let start = Instant::now();
+        // Each propagation step counts as one unit of the progress a
+        // watcher shows (`super::progress`): a warm-up of 2²⁰ steps on a
+        // fine grid takes hours, and shows how far it is.
         match settings.warm {
             Warm::Steps(n) => {
+                super::progress::announce(u64::from(n));
                 for _ in 0..n {
                     cache.step(Threads::Pool);
+                    super::progress::row_done();
                 }
             }
             Warm::Converge => {
+                super::progress::announce(u64::from(MAX_WARM_STEPS));
                 for _ in 0..MAX_WARM_STEPS {
                     let r = cache.step_with_residual(Threads::Pool);
+                    super::progress::row_done();
                     if r.max <= CONVERGED * f64::from(cache.max_value()) {
                         break;
                     }
@@ -269,7 +276,8 @@ impl FloodFillIntegrator {
     /// One frame as S4 runs it: the frame's propagation steps, then the
     /// render.
     pub fn frame<S: RenderStats>(&mut self, scene: &Scene, threads: Option<usize>) -> (Film, S) {
-        self.cache.frame(Threads::Pool);
+        super::progress::announce(u64::from(self.settings.config.steps_per_frame));
+        self.cache.frame(Threads::Pool, super::progress::row_done);
         super::render(scene, &*self, threads)
     }
 }

@@ -383,7 +383,12 @@ where
         }
         out
     });
-    let mut pixels = Vec::new();
+    // Sized once: grown by doubling it could hold twice the pixels.
+    let mut pixels = Vec::with_capacity(if per_pixel {
+        cam.width as usize * cam.height as usize
+    } else {
+        0
+    });
     // Each row's samples stay where the row put them: gathering them into
     // one vector would hold them twice (film::memory counts them once).
     let mut samples = Vec::with_capacity(rows.len());

@@ -55,6 +55,9 @@ pub enum ProceduralError {
     /// A terrain of no cells.
     #[error("terrain needs n ≥ 1")]
     Terrain,
+    /// More triangles than the memory available can hold once built.
+    #[error(transparent)]
+    Memory(#[from] crate::film::memory::MemoryError),
 }
 
 impl Procedural {
@@ -75,6 +78,12 @@ impl Procedural {
         if count > MAX_TRIANGLES {
             return Err(ProceduralError::TooManyTriangles { count });
         }
+        // Checked before generating: what the mesh will hold once a tree
+        // is built over it.
+        crate::film::memory::check(
+            || format!("a mesh of {count} triangles (its data and tree)"),
+            u128::from(count) * crate::film::memory::TRIANGLE_BYTES,
+        )?;
         match *self {
             Procedural::Icosphere { level } => Ok(icosphere(level)),
             Procedural::TorusKnot {

@@ -202,7 +202,8 @@ impl From<CameraError> for SceneError {
 
 impl Scene {
     /// Build the scene `desc` describes, after checking its numbers: the
-    /// film it renders must fit in memory ([`crate::film::memory`]), the
+    /// film it renders and its triangles built must fit in memory
+    /// ([`crate::film::memory`], `TRIANGLE_BYTES` each), the
     /// geometry comes from the one builder ([`build::build`] over `f32`),
     /// and the accelerator is built over it (which only Embree and obvhs
     /// can fail to do).
@@ -223,6 +224,16 @@ impl Scene {
                 output: crate::film::memory::OutputFormat::Png,
                 threads: 1,
             }),
+        )?;
+        let triangles = desc.triangles.len() as u128
+            + desc
+                .meshes
+                .iter()
+                .map(|m| m.data.triangles.len() as u128)
+                .sum::<u128>();
+        crate::film::memory::check(
+            || format!("a scene of {triangles} triangles (their primitives and tree)"),
+            triangles * crate::film::memory::TRIANGLE_BYTES,
         )?;
         let numbers = build::build(desc, &Plain)?;
         let camera = Camera::from_frame(&numbers.camera, width, height)?;

@@ -170,7 +170,7 @@ pub use shard::{Shard, ShardError};
 use crate::{Error, FileOp};
 use data::{ReadTable, RowWriter, Table, DATA_FILE};
 use indicatif::{ProgressBar, ProgressStyle};
-use meta::{GitRevision, Meta};
+use meta::{GitRevision, Meta, META_FILE};
 use raylab::io::InputError;
 use std::collections::HashSet;
 use std::io::IsTerminal;
@@ -250,6 +250,17 @@ pub fn run_experiment(path: &Path, opts: &ExperimentOptions) -> Result<Experimen
             None => out.join(&manifest.name),
         }
     });
+    let mut outputs = vec![
+        ("data.csv", out_dir.join(DATA_FILE)),
+        ("meta.json", out_dir.join(META_FILE)),
+    ];
+    for f in &manifest.figures {
+        for ext in ["png", "svg"] {
+            outputs.push(("a figure", out_dir.join(format!("{}.{ext}", f.file))));
+        }
+    }
+    let outputs: Vec<(&str, &Path)> = outputs.iter().map(|(r, p)| (*r, p.as_path())).collect();
+    raylab::io::check_outputs(&[("the manifest", path)], &outputs)?;
     std::fs::create_dir_all(&out_dir)
         .map_err(|e| Error::io(&out_dir, FileOp::CreateOutputFolder, e))?;
 

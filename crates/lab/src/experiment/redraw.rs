@@ -47,6 +47,7 @@ pub fn redraw(
     manifest: Option<&Path>,
 ) -> Result<Redrawn, Error> {
     let mut meta = Meta::read(dir)?;
+    let manifest_path = manifest;
     let manifest = match manifest {
         None => meta.recorded_manifest(dir)?,
         Some(path) => {
@@ -115,7 +116,21 @@ pub fn redraw(
         }
     }
     let out = out_dir.unwrap_or(dir);
-    if out != dir {
+    // The same folder however it is written (`DIR/./`, a link to it):
+    // copying its data onto itself would be a write over an input.
+    let same = match (std::fs::canonicalize(out), std::fs::canonicalize(dir)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => out == dir,
+    };
+    let figures: Vec<std::path::PathBuf> = manifest
+        .figures
+        .iter()
+        .flat_map(|f| ["png", "svg"].map(|ext| out.join(format!("{}.{ext}", f.file))))
+        .collect();
+    let outputs: Vec<(&str, &Path)> = figures.iter().map(|f| ("a figure", f.as_path())).collect();
+    let inputs: Vec<(&str, &Path)> = manifest_path.iter().map(|m| ("--manifest", *m)).collect();
+    raylab::io::check_outputs(&inputs, &outputs)?;
+    if !same {
         std::fs::create_dir_all(out).map_err(|e| Error::io(out, FileOp::CreateOutputFolder, e))?;
         copy_study_files(dir, out, Path::new(""))?;
         std::fs::copy(&data, out.join(DATA_FILE)).map_err(|error| Error::Copy {

@@ -101,6 +101,14 @@ pub struct GradReport {
 }
 
 impl GradReport {
+    /// The memory `run` checks for before it starts, in bytes: what the
+    /// tests measure the peak against.
+    pub fn memory(opts: &GradOptions) -> Result<u128> {
+        let (source, scene) = diff::load(&opts.scene, &opts.overrides)?;
+        let params = diff::resolve_all(&opts.params, &source.description)?;
+        Ok(grad_bytes(opts, &scene, &source.description, &params))
+    }
+
     pub fn run(opts: &GradOptions) -> Result<Self> {
         crate::check_threads(opts.threads)?;
         let (source, scene) = diff::load(&opts.scene, &opts.overrides)?;
@@ -113,6 +121,20 @@ impl GradReport {
                 diff::check_step(&source, p, step(p, c))?;
             }
         }
+        let outputs = output_files(&opts.out_dir, desc, &params);
+        let roles: Vec<(&str, &Path)> = outputs.iter().map(|f| ("an image", f.as_path())).collect();
+        raylab::io::check_outputs(&[("the scene", opts.scene.as_path())], &roles)?;
+        raylab::film::memory::check(
+            || {
+                format!(
+                    "the derivatives of {}×{} pixels with respect to {} parameters",
+                    scene.camera.width,
+                    scene.camera.height,
+                    params.len()
+                )
+            },
+            grad_bytes(opts, &scene, desc, &params),
+        )?;
         std::fs::create_dir_all(&opts.out_dir)
             .map_err(|e| Error::io(&opts.out_dir, FileOp::CreateFolder, e))?;
 
@@ -125,7 +147,7 @@ impl GradReport {
         write_film_exr(&opts.out_dir.join("image.exr"), &film, &film.image())?;
 
         let start = Instant::now();
-        let watch = super::progress::Watch::start("derivatives", opts.progress);
+        let watch = super::progress::Watch::start("derivatives", "rows", opts.progress);
         let grads = diff::render_gradients(&GradientRender {
             scene: &scene,
             desc,
@@ -186,6 +208,75 @@ impl GradReport {
             rows,
         })
     }
+}
+
+/// What `raylab grad` holds at its peak beyond the loaded scene: the
+/// plain render's film statistics (kept while the derivatives render),
+/// and the larger of what writing that render held beside them (its
+/// image and EXR channels) and what the gradient render holds
+/// ([`diff::gradient_bytes`]); with `--check fd`, the check's five
+/// renders (two per step and the base, each a film and its image) on
+/// top, an upper bound as they are not all held at once.
+fn grad_bytes(
+    opts: &GradOptions,
+    scene: &raylab::scene::Scene,
+    desc: &raylab::scene::description::SceneDescription,
+    params: &[ParamId],
+) -> u128 {
+    use raylab::film::memory::{render_bytes, OutputFormat, RenderHolds};
+    let threads = opts.threads.unwrap_or_else(rayon::current_num_threads);
+    let film = |output| {
+        render_bytes(&RenderHolds {
+            width: scene.camera.width,
+            height: scene.camera.height,
+            spp: scene.settings.sampler.spp(),
+            keep_samples: false,
+            output,
+            threads,
+        })
+    };
+    let check = if opts.check.is_some() {
+        5 * film(OutputFormat::Png)
+    } else {
+        0
+    };
+    let pixels = u128::from(scene.camera.width) * u128::from(scene.camera.height);
+    let kept = pixels * std::mem::size_of::<raylab::film::PixelStats>() as u128;
+    let gradients = diff::gradient_bytes(&GradientRender {
+        scene,
+        desc,
+        params,
+        integrator: opts.integrator,
+        visibility: opts.visibility,
+        threads: opts.threads,
+    });
+    kept + (film(OutputFormat::Exr) - kept).max(gradients) + check
+}
+
+/// Every file `raylab grad` may write into `dir`: the render, and per
+/// parameter its images, its boundary term's and its check's.
+fn output_files(
+    dir: &Path,
+    desc: &raylab::scene::description::SceneDescription,
+    params: &[ParamId],
+) -> Vec<PathBuf> {
+    let mut files = vec![dir.join("image.exr")];
+    for &p in params {
+        let name = desc.param_name(p);
+        for file in [
+            format!("{name}.exr"),
+            format!("{name}.png"),
+            format!("{name}.svg"),
+            format!("{name}.boundary.exr"),
+            format!("{name}.boundary.png"),
+            format!("{name}.boundary.svg"),
+            format!("{name}.fd-diff.png"),
+            format!("{name}.fd-diff.svg"),
+        ] {
+            files.push(dir.join(file));
+        }
+    }
+    files
 }
 
 /// `DIR/<param>.exr` (R, G, B = ∂pixel/∂param, `variance.R/G/B`, `count`)

@@ -20,9 +20,11 @@ pub struct Watch {
 }
 
 impl Watch {
-    /// Start watching the rows announced from now on, labelled `what`;
-    /// `enabled = false` (or stderr not a terminal) watches nothing.
-    pub fn start(what: &str, enabled: bool) -> Watch {
+    /// Start watching the units announced from now on (image rows, or a
+    /// flood-fill cache's propagation steps), labelled `what` and counted
+    /// in `unit`; `enabled = false` (or stderr not a terminal) watches
+    /// nothing.
+    pub fn start(what: &str, unit: &str, enabled: bool) -> Watch {
         let stop = Arc::new(AtomicBool::new(false));
         if !enabled || !std::io::stderr().is_terminal() {
             return Watch { stop, thread: None };
@@ -30,6 +32,7 @@ impl Watch {
         let (done0, total0) = snapshot();
         let flag = Arc::clone(&stop);
         let label = what.to_string();
+        let unit = unit.to_string();
         let thread = std::thread::spawn(move || {
             let t0 = Instant::now();
             let tick = Duration::from_millis(100);
@@ -40,9 +43,9 @@ impl Watch {
                 std::thread::sleep(tick);
             }
             let bar = ProgressBar::new(0);
-            if let Ok(style) = ProgressStyle::with_template(
-                "{msg} [{bar:30}] {pos}/{len} rows, {per_sec}, eta {eta}",
-            ) {
+            if let Ok(style) = ProgressStyle::with_template(&format!(
+                "{{msg}} [{{bar:30}}] {{pos}}/{{len}} {unit}, {{per_sec}}, eta {{eta}}"
+            )) {
                 bar.set_style(style.progress_chars("=> "));
             }
             bar.set_message(label);

@@ -231,21 +231,37 @@ pub struct MemoryUse {
     pub peak: u128,
 }
 
-/// What rendering `scene` to `output` on `threads` holds beyond the
-/// loaded scene.
-fn render_holds(scene: &raylab::scene::Scene, output: &std::path::Path, threads: usize) -> u128 {
+/// What rendering `scene` as `opts` says on `threads` holds beyond the
+/// loaded scene: the film and its output ([`render_bytes`]); with
+/// `--reference`, the reference and the comparison with it (counted as
+/// `diff` counts two images, [`DIFF_BYTES_PER_PIXEL`]); with
+/// `--spp-map`, the map's data (8 bytes a pixel).
+///
+/// [`render_bytes`]: raylab::film::memory::render_bytes
+/// [`DIFF_BYTES_PER_PIXEL`]: crate::analysis::metrics::DIFF_BYTES_PER_PIXEL
+fn render_holds(scene: &raylab::scene::Scene, opts: &RenderOptions, threads: usize) -> u128 {
     use raylab::film::memory::{render_bytes, OutputFormat, RenderHolds};
-    render_bytes(&RenderHolds {
-        width: scene.camera.width,
-        height: scene.camera.height,
-        spp: scene.settings.sampler.spp(),
-        keep_samples: scene.settings.filter != Filter::Box,
-        output: match ImageFormat::from_path(output) {
-            Some(ImageFormat::Exr) => OutputFormat::Exr,
-            _ => OutputFormat::Png,
-        },
-        threads,
-    })
+    let pixels = u128::from(scene.camera.width) * u128::from(scene.camera.height);
+    let mut extra = 0;
+    if opts.reference.is_some() {
+        extra += crate::analysis::metrics::DIFF_BYTES_PER_PIXEL;
+    }
+    if opts.spp_map.is_some() {
+        extra += 8;
+    }
+    let output = &opts.output;
+    pixels * extra
+        + render_bytes(&RenderHolds {
+            width: scene.camera.width,
+            height: scene.camera.height,
+            spp: scene.settings.sampler.spp(),
+            keep_samples: scene.settings.filter != Filter::Box,
+            output: match ImageFormat::from_path(output) {
+                Some(ImageFormat::Exr) => OutputFormat::Exr,
+                _ => OutputFormat::Png,
+            },
+            threads,
+        })
 }
 
 impl RenderReport {
@@ -271,7 +287,7 @@ impl RenderReport {
         let scene = load_scene(&opts.scene, &opts.overrides)?;
         let load_s = t0.elapsed().as_secs_f64();
         let threads = opts.threads.unwrap_or_else(rayon::current_num_threads);
-        let holds = render_holds(&scene, &opts.output, threads);
+        let holds = render_holds(&scene, opts, threads);
         raylab::film::memory::check(
             || {
                 format!(
@@ -294,15 +310,24 @@ impl RenderReport {
             .transpose()?;
         // Flood fill's cache is built and warmed up here, timed apart from
         // the frame (one frame = its propagation steps and the render).
+        let watch = super::progress::Watch::start("warm-up", "propagation steps", opts.progress);
         let mut prepared = integrator
             .prepare(&scene)
             .map_err(|e| Error::scene(&opts.scene, Error::Render(e)))?;
+        drop(watch);
         let t1 = Instant::now();
         #[cfg(feature = "gpu")]
         let mut gpu = None;
         let (film, counts) = match opts.device {
             Device::Cpu => {
-                let watch = super::progress::Watch::start("render", opts.progress);
+                let watch = super::progress::Watch::start(
+                    "render",
+                    match integrator {
+                        IntegratorKind::FloodFill(_) => "propagation steps and rows",
+                        _ => "rows",
+                    },
+                    opts.progress,
+                );
                 let (film, RayCounts(counts)) =
                     prepared
                         .frame::<RayCounts>(&scene, opts.threads)

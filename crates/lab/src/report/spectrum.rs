@@ -42,7 +42,9 @@ impl SpectrumReport {
     /// Check the options, compute every sampler's periodogram and write
     /// the files.
     pub fn run(opts: &SpectrumOptions) -> Result<Self, Error> {
-        check_sets_and_freq(opts.sets, opts.freq)?;
+        for s in &opts.samplers {
+            check_sets_and_freq(opts.sets, opts.freq, s.spp())?;
+        }
         let spectra: Vec<_> = opts
             .samplers
             .iter()

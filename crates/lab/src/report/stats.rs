@@ -126,6 +126,34 @@ pub fn file_stem(kind: AccelKind) -> String {
     kind.to_string().replace(':', "-")
 }
 
+/// What `raylab stats` holds at its peak beyond the loaded scene, per
+/// accelerator (each one's are dropped before the next): while rendering,
+/// the film's running statistics ([`PixelStats`](raylab::film::PixelStats);
+/// the image is never developed) and, with a filter wider than the box,
+/// every sample ([`FilmSample`](raylab::film::FilmSample)), beside each
+/// row's per-pixel [`Counters`] and the image's gathered from them;
+/// afterwards the gathered counters beside those of the camera rays
+/// ([`camera_ray_costs`]), the two sorted per-ray costs and a heatmap's
+/// data (three 8-byte values per pixel). The sum of both phases less the
+/// film's second set of counters bounds the larger; and the worker
+/// threads. Measured against peak resident memory in
+/// crates/cli/tests/memory.rs (within +10 %/−0 %).
+pub fn stats_bytes(scene: &Scene, threads: usize) -> u128 {
+    use raylab::film::{memory::THREAD_BYTES, FilmSample, Filter, PixelStats};
+    use std::mem::size_of;
+    let pixels = u128::from(scene.camera.width) * u128::from(scene.camera.height);
+    let samples = if scene.settings.filter == Filter::Box {
+        0
+    } else {
+        u128::from(scene.settings.sampler.spp()) * size_of::<FilmSample>() as u128
+    };
+    let per_pixel = size_of::<PixelStats>() as u128
+        + samples
+        + 2 * size_of::<Counters>() as u128
+        + 3 * size_of::<u64>() as u128;
+    pixels * per_pixel + threads.max(1) as u128 * THREAD_BYTES
+}
+
 /// Costs of the camera ray through each pixel centre, row-major, each
 /// traced alone (closest hit, accelerator plus unbounded primitives) into
 /// its own [`Counters`].
@@ -178,6 +206,16 @@ pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>, E
     let t = Instant::now();
     let mut scene = load_scene(&opts.scene, &overrides)?;
     let load_seconds = t.elapsed().as_secs_f64();
+    let threads = opts.threads.unwrap_or_else(rayon::current_num_threads);
+    raylab::film::memory::check(
+        || {
+            format!(
+                "counting the costs of {}×{} pixels",
+                scene.camera.width, scene.camera.height
+            )
+        },
+        stats_bytes(&scene, threads),
+    )?;
     let bounded = scene.prims.len() - scene.unbounded.len();
     let accels = if opts.accels.is_empty() {
         let mut v = default_accels(bounded);
@@ -197,6 +235,13 @@ pub fn run(opts: &StatsOptions, w: &mut dyn Write) -> Result<Vec<AccelReport>, E
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join("stats").join(&stem));
+    let maps: Vec<PathBuf> = accels
+        .iter()
+        .flat_map(|&k| heatmap_stems(&out_dir, k))
+        .flat_map(|stem| ["png", "svg"].map(|ext| stem.with_extension(ext)))
+        .collect();
+    let outputs: Vec<(&str, &Path)> = maps.iter().map(|m| ("a heatmap", m.as_path())).collect();
+    raylab::io::check_outputs(&[("the scene", opts.scene.as_path())], &outputs)?;
     std::fs::create_dir_all(&out_dir).map_err(|e| Error::io(&out_dir, FileOp::CreateFolder, e))?;
 
     let (width, height) = (scene.camera.width, scene.camera.height);
@@ -278,6 +323,20 @@ struct PixelCosts {
 /// Reads one cost out of a pixel's counters.
 type CostOf = fn(&Counters) -> u64;
 
+/// The heatmaps of each accelerator: file suffix, what is counted, and
+/// where it is read.
+const HEATMAPS: [(&str, &str, CostOf); 2] = [
+    ("nodes", "nodes visited", |c| c.nodes_visited),
+    ("prim-tests", "primitive tests", Counters::primitive_tests),
+];
+
+/// Where accelerator `kind`'s heatmaps go in `dir`, without extension.
+fn heatmap_stems(dir: &Path, kind: AccelKind) -> impl Iterator<Item = PathBuf> + '_ {
+    HEATMAPS
+        .into_iter()
+        .map(move |(suffix, _, _)| dir.join(format!("{}-{suffix}", file_stem(kind))))
+}
+
 /// Per-pixel maps of nodes visited and primitive tests, log scale.
 fn write_heatmaps(
     dir: &Path,
@@ -287,12 +346,8 @@ fn write_heatmaps(
     height: u32,
 ) -> Result<Vec<PathBuf>, Error> {
     let shape = (height as usize, width as usize);
-    let maps: [(&str, &str, CostOf); 2] = [
-        ("nodes", "nodes visited", |c| c.nodes_visited),
-        ("prim-tests", "primitive tests", Counters::primitive_tests),
-    ];
     let mut stems = Vec::new();
-    for (suffix, what, get) in maps {
+    for ((_, what, get), stem) in HEATMAPS.into_iter().zip(heatmap_stems(dir, kind)) {
         let data = Array2::from_shape_vec(shape, pixels.iter().map(|c| get(c) as f64).collect())
             .map_err(|e| {
                 Error::Internal(format!("per-pixel costs do not match the image size: {e}"))
@@ -303,7 +358,6 @@ fn write_heatmaps(
         // be drawn on one, so it is drawn linear (all one colour).
         map.log_scale = map.data.iter().any(|&v| v > 0.0);
         map.value_label = what.into();
-        let stem = dir.join(format!("{}-{suffix}", file_stem(kind)));
         map.save(&stem)?;
         stems.push(stem);
     }

@@ -147,9 +147,8 @@ use curves::{edge_curve, edge_matters, horizon, mesh_edges, smooth_silhouette, C
 use film::{behind, eye_sees, film_length, on_film, shadow_point};
 use meeting::{meeting, meeting_band, meeting_pairs};
 use mirror::{mirrors, Mirror};
-use rayon::prelude::*;
 use std::time::Instant;
-use sums::{grazing, jump, landed, offset_by, CurveResult, SparseSums};
+use sums::{fold_in_order, grazing, jump, landed, offset_by, CurveResult, SparseSums};
 
 /// Distance in pixels from the curve at which f⁺ and f⁻ are evaluated:
 /// far enough above `f32` round-off of film positions (about 10⁻⁵ px) and
@@ -300,27 +299,18 @@ pub fn boundary_term<const K: usize>(
     }
     let jobs = collect_curves(view, params, integrator, density, &mut out.stats);
     let seed = SplitMix64::mix(seed ^ 0xB0DA_7E55_ED6E_u64);
-    let results: Vec<CurveResult<K>> = in_pool(threads, || {
-        let mut results: Vec<CurveResult<K>> = jobs
-            .par_iter()
-            .enumerate()
-            .map(|(j, job)| {
-                sample_curve(view, job, n, integrator, SplitMix64::mix(seed ^ j as u64))
-            })
-            .collect();
+    in_pool(threads, || {
+        fold_in_order(&jobs, &mut out, |j, job| {
+            sample_curve(view, job, n, integrator, SplitMix64::mix(seed ^ j as u64))
+        });
         // Curves seen in curved mirrors, after the others (their seeds
         // follow on).
         let curved = curved_jobs(view, params, integrator, density, &mut out.stats);
-        results.par_extend(curved.par_iter().enumerate().map(|(j, job)| {
+        fold_in_order(&curved, &mut out, |j, job| {
             let seed = SplitMix64::mix(seed ^ (jobs.len() + j) as u64);
             sample_curved(view, job, n, integrator, seed)
-        }));
-        results
+        });
     });
-    for r in results {
-        out.stats.add(&r.stats);
-        r.sums.add_to(&mut out.planes, r.samples);
-    }
     out.stats.seconds = start.elapsed().as_secs_f64();
     out
 }

@@ -66,7 +66,7 @@ impl<'a> Data<'a> {
         for label in spec.series_labels.values() {
             fill(label, table, &rows).map_err(|e| problem(e.to_string()))?;
         }
-        Ok(Data {
+        let data = Data {
             spec,
             table,
             rows,
@@ -77,7 +77,34 @@ impl<'a> Data<'a> {
                 .map(|c| col(c))
                 .collect::<Result<_, Error>>()?,
             series: spec.series.as_deref().map(col).transpose()?,
-        })
+        };
+        // A column of text with no number to draw would make an empty
+        // chart (columns left empty, as unmeasured ones are, still draw).
+        let numeric = matches!(spec.kind, FigureKind::Line | FigureKind::Ratio);
+        let axes = numeric
+            .then_some(("x", &spec.x, data.x))
+            .into_iter()
+            .chain(spec.y.iter().zip(&data.y).map(|(name, &c)| ("y", name, c)));
+        for (axis, name, c) in axes {
+            let text = data
+                .rows
+                .iter()
+                .map(|r| r[c].trim())
+                .find(|v| !v.is_empty() && v.parse::<f64>().is_err());
+            let drawn = data.rows.iter().any(|r| number(&r[c]).is_finite());
+            if let (Some(example), false) = (text, drawn) {
+                let hint = if axis == "x" {
+                    " (for categories use kind = \"bar\")"
+                } else {
+                    ""
+                };
+                return Err(problem(format!(
+                    "{axis} column `{name}` holds no number in the {} rows drawn (e.g. `{example}`){hint}",
+                    data.rows.len()
+                )));
+            }
+        }
+        Ok(data)
     }
 
     /// Legend text of series `value` for y column number `k`: the series

@@ -150,7 +150,8 @@ impl Study for AaPatterns {
     ) -> Result<AaPatternsConfig, RunParamError> {
         let sets = p.sets.map_or(DEFAULT_SETS, |v| v.get() as usize);
         let freq = p.freq.map_or(DEFAULT_FREQ, |v| v.get() as usize);
-        check_sets_and_freq(sets, freq).map_err(|e| RunParamError::new("sets", e.to_string()))?;
+        check_sets_and_freq(sets, freq, p.sampler.spp())
+            .map_err(|e| RunParamError::new("sets", e.to_string()))?;
         Ok(AaPatternsConfig {
             sampler: p.sampler,
             sets,

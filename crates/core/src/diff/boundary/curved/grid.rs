@@ -261,15 +261,15 @@ impl Grid {
             return None;
         }
         let (lo, n) = window(cells, coarse, &seen);
-        let points: Vec<Result<Trace, CutOff>> = (0..=n.1)
+        // Row-major, j·(n.0 + 1) + i, collected into one vector of the
+        // right size (at most `GRID_POINTS`).
+        let across = n.0 + 1;
+        let points: Vec<Result<Trace, CutOff>> = (0..across * (n.1 + 1))
             .into_par_iter()
-            .flat_map_iter(|j| {
-                let cap = &cap;
-                (0..=n.0).map(move |i| {
-                    let (i, j) = ((lo.0 + i) as f32, (lo.1 + j) as f32);
-                    let p = on_disc(cap.reach, rim, cells, i, j);
-                    traced_at(scene, cap, size, &chain, p)
-                })
+            .map(|k| {
+                let (i, j) = ((lo.0 + k % across) as f32, (lo.1 + k / across) as f32);
+                let p = on_disc(cap.reach, rim, cells, i, j);
+                traced_at(scene, &cap, size, &chain, p)
             })
             .collect();
         stats.light_rays += chain.rays() * points.iter().flatten().count() as u64;

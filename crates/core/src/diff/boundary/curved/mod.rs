@@ -105,8 +105,25 @@ use rayon::prelude::*;
 /// The side of the grid's cells, in pixels.
 pub const STEP_PX: f32 = 0.25;
 
-/// The most cells across a grid.
-const MAX_CELLS: usize = 4096;
+/// The most cells across a grid: 2048, reached by a disc 256 pixels in
+/// radius on the film (cells of a quarter pixel), beyond which cells grow.
+/// With 4096 a grid's traced points alone could take 6.5 GB.
+const MAX_CELLS: usize = 2048;
+
+/// What one curved mirror's grid can hold at most, the boundary term's
+/// largest piece of memory beside its planes (`raylab grad` counts it,
+/// [`crate::diff::gradient_bytes`]): its traced points, one per corner of
+/// `MAX_CELLS`² cells, and a flag per cell; zero where the scene has no
+/// curved mirror or glass for Whitted to look through. The grids of the
+/// chains are made one at a time.
+pub fn grid_bytes(scene: &Scene) -> u128 {
+    if chain::chains(scene).is_empty() {
+        return 0;
+    }
+    let corners = (MAX_CELLS as u128 + 1).pow(2);
+    corners * std::mem::size_of::<Result<chain::Trace, chain::CutOff>>() as u128
+        + (MAX_CELLS as u128).pow(2)
+}
 
 /// The fewest cells across a grid, whatever the disc's size on the film.
 /// What a mirror or a glass sphere shows is squeezed into its disc at the
