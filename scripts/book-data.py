@@ -35,6 +35,16 @@ committed full run), never a copy that drifts. Two directives:
     Outside maths the value becomes a link to the data file whose title holds
     its provenance; inside ``$…$`` it is the bare number.
 
+``{{#assert SOURCE EXPR OP EXPR}}``
+    A comparative sentence's evidence: the relation (OP is ``<``, ``<=``,
+    ``>`` or ``>=``; both sides are EXPRs as in ``#value``, over the same
+    SOURCE) must hold in the data, or the build fails naming the page, the
+    line and both values. It renders as nothing, so it sits in the sentence
+    it backs: "raylab is faster on every mesh{{#assert full/embree-speed
+    min(ratio) > 1}}". Quick runs are made anew at every build, so an
+    assertion over a quick run may not use a timing: prose compares times
+    of committed full runs only.
+
 ``{{#measure raylab ARGS…}}`` (on a line of its own)
     Runs the command from the repository root with the book's raylab binary
     (``$RAYLAB``) and shows a "Measure it yourself" box: the command and what
@@ -46,6 +56,9 @@ committed full run), never a copy that drifts. Two directives:
     links to its ``data.csv`` and ``meta.json``.
 
 Directives inside code spans and fenced code blocks are left as written.
+A committed full run whose ``meta.json`` says it was made from a work tree
+with local changes (``git_dirty``), or from no git revision at all, is
+refused: the revision a full run names must be the code that made it.
 Every chapter that quotes values ends with a list of the runs they came from
 (quick or full run, date, revision, CPU, threads, optimised build) with links
 to their ``data.csv`` and ``meta.json``.
@@ -69,7 +82,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 FIGURES = ROOT / "book" / "src" / "figures"
-DIRECTIVE = re.compile(r"\{\{#(value|measure|figure)\s+(.*?)\}\}", re.S)
+DIRECTIVE = re.compile(r"\{\{#(value|measure|figure|assert)\s+(.*?)\}\}", re.S)
 # Columns whose values are times or rates: refused from unoptimised builds.
 TIMING = re.compile(r"(_s(_\d+)?$|_s_|_ms$|^time|_time|per_s$|ns_per|speedup|throughput|mrays)")
 AGGREGATES = {"one", "mean", "median", "min", "max", "sum", "count"}
@@ -95,6 +108,13 @@ class Run:
             where = "scripts/book's quick run" if kind == "quick" else f"analysis/results/{study}"
             raise BookError(f"source {source!r}: no {meta.relative_to(ROOT)} (from {where})")
         self.meta = json.loads(meta.read_text())
+        if kind == "full" and self.meta.get("git_dirty") is not False and not os.environ.get("BOOK_DRAFT"):
+            why = ("with local changes" if self.meta.get("git_dirty")
+                   else "outside a git work tree")
+            raise BookError(f"source {source!r}: analysis/results/{study}/meta.json was made {why} "
+                            f"(revision {self.meta.get('git_revision', 'unknown')[:10]}); a committed "
+                            f"full run must come from a clean tree of the revision it names: run it "
+                            f"again (analysis/results/README.md)")
         self.tables = {}
 
     def table(self, name):
@@ -129,6 +149,7 @@ def same(a, b):
         return False
 
 
+ASSERTIONS = []  # (page:line, relation) of every assertion that held
 OUTPUTS = {}  # command line -> what it printed: each command runs once per build
 
 
@@ -412,6 +433,61 @@ class Parser:
         raise BookError(f"{self.run.source}: meta.json has no summary of figure {figure!r} ({figures})")
 
 
+RELATIONS = {
+    "<=": lambda a, b: a <= b,
+    ">=": lambda a, b: a >= b,
+    "<": lambda a, b: a < b,
+    ">": lambda a, b: a > b,
+}
+
+
+def split_relation(text):
+    """EXPR OP EXPR: the two sides and OP, the one relation outside
+    parentheses and quotes (selectors' ``key=value`` are inside)."""
+    depth, quoted, found = 0, False, []
+    i = 0
+    while i < len(text):
+        c = text[i]
+        if c == '"':
+            quoted = not quoted
+        elif not quoted and c == "(":
+            depth += 1
+        elif not quoted and c == ")":
+            depth -= 1
+        elif not quoted and depth == 0 and c in "<>":
+            op = text[i : i + 2] if text[i + 1 : i + 2] == "=" else c
+            found.append((i, op))
+            i += len(op)
+            continue
+        i += 1
+    if len(found) != 1:
+        raise BookError(f"expected EXPR OP EXPR with one of {', '.join(RELATIONS)} in {text!r}")
+    i, op = found[0]
+    return text[:i].strip(), op, text[i + len(op) :].strip()
+
+
+def check_assertion(body, runs, raylab):
+    """``{{#assert SOURCE EXPR OP EXPR}}``: raise unless the relation holds."""
+    source, _, rest = body.partition(" ")
+    lhs, op, rhs = split_relation(rest)
+    if source not in runs:
+        runs[source] = Commands(raylab) if source == "cmd" else Run(source)
+    run = runs[source]
+    values, columns = [], []
+    for side in (lhs, rhs):
+        parser = Parser(side, run)
+        values.append(parser.parse())
+        columns += parser.columns
+    timed = [c for c in columns if TIMING.search(c)]
+    if getattr(run, "kind", None) == "quick" and timed:
+        raise BookError(f"asserts over {', '.join(dict.fromkeys(timed))} of a quick run: timings of "
+                        f"quick runs change at every build; compare a committed full run's")
+    if not RELATIONS[op](*values):
+        raise BookError(f"the claim no longer holds: {lhs} = {values[0]:.6g} is not {op} "
+                        f"{rhs} = {values[1]:.6g} in {source}; the sentence it backs must change")
+    return run
+
+
 def format_value(value, fmt):
     if fmt.startswith("tex"):
         digits = int(fmt[4:] or 2) if fmt[3:4] == "." else 2
@@ -502,6 +578,12 @@ def process(content, path, raylab, runs):
                 return out.replace("](getting-started.md)", f"]({prefix}getting-started.md)")
             if kind == "figure":
                 return figure(body, runs, prefix, used)
+            if kind == "assert":
+                run = check_assertion(body, runs, raylab)
+                ASSERTIONS.append((where, body))
+                if isinstance(run, Run):
+                    used[run.source] = run
+                return ""
             source, _, rest = body.partition(" ")
             expr, fmt = rest, ""
             fm = re.search(r"\s:(\S+)$", rest)
@@ -562,6 +644,7 @@ def main():
         for e in errors:
             print(f"book-data: {e}", file=sys.stderr)
         return 1
+    print(f"book-data: {len(ASSERTIONS)} claims asserted over data, all hold", file=sys.stderr)
     json.dump(book, sys.stdout)
     return 0
 

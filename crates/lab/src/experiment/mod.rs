@@ -330,6 +330,18 @@ pub fn run_experiment(path: &Path, opts: &ExperimentOptions) -> Result<Experimen
         revision: git_revision,
         dirty: git_dirty,
     } = meta::git_revision(manifest.base_dir());
+    if !opts.quick && git_dirty != Some(false) {
+        eprintln!(
+            "warning: this full run is made {}: its meta.json records that, and the book \
+             refuses such a run as a committed full run (analysis/results/README.md); \
+             commit first to make one that can be committed",
+            if git_dirty.is_some() {
+                "from a work tree with local changes"
+            } else {
+                "outside a git work tree"
+            }
+        );
+    }
     let mut meta = Meta {
         name: manifest.name.clone(),
         kind: manifest.kind.clone(),
