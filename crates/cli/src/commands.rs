@@ -21,6 +21,7 @@ pub(super) fn cmd_render(args: RenderArgs) -> Result<()> {
     let opts = report::RenderOptions {
         overrides: args.common.overrides(),
         integrator: args.common.integrator(),
+        settings: args.common.set,
         scene: args.common.scene,
         output: args.output,
         reference: args.reference,
@@ -40,6 +41,7 @@ pub(super) fn cmd_grad(args: GradArgs) -> Result<()> {
     let opts = report::grad::GradOptions {
         overrides: args.common.overrides(),
         integrator: args.common.integrator(),
+        settings: args.common.set,
         scene: args.common.scene,
         out_dir: args.output,
         params: args.params,

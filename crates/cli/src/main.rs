@@ -14,6 +14,7 @@ use raylab::film::Filter;
 use raylab::integrator::IntegratorKind;
 use raylab::io::scene_file::Overrides;
 use raylab::sampler::Sampler;
+use raylab::scene::param::Setting;
 use raylab_lab::experiment;
 use raylab_lab::report::{self, print_stdout};
 use std::path::PathBuf;
@@ -421,6 +422,15 @@ struct SceneArgs {
     /// Seed for randomised samplers and integrators.
     #[arg(long)]
     seed: Option<u64>,
+    /// Set a scene parameter: PATH=VALUE, PATH a name `raylab grad --param`
+    /// takes (`light[0].intensity`, `materials.glass.transparency`,
+    /// `sphere[1].radius`, `camera.fov`, `render.ambient`…) and VALUE a
+    /// number, or `[x,y,z]` for a vector (a component such as
+    /// `materials.red.color[0]` takes a number). Repeat for more; applied in
+    /// order after the other options, and the scene is then checked as a
+    /// scene file is. Quote it in a shell: `--set 'render.ambient=[2,2,2]'`.
+    #[arg(long = "set", value_name = "PATH=VALUE", value_parser = Setting::parse)]
+    set: Vec<Setting>,
 }
 
 impl SceneArgs {
@@ -579,7 +589,16 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            ExitCode::FAILURE
+            exit_status(&e)
         }
+    }
+}
+
+/// 2 for a usage error found once the scene is read (a `--set` it
+/// refuses), as clap exits for the options it refuses; 1 otherwise.
+fn exit_status(e: &anyhow::Error) -> ExitCode {
+    match e.downcast_ref::<raylab_lab::Error>() {
+        Some(e) if e.is_usage() => ExitCode::from(2),
+        _ => ExitCode::FAILURE,
     }
 }

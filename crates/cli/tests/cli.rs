@@ -1,19 +1,7 @@
 //! The `raylab` binary: bad input gets a clear error naming the file and the
 //! line, a non-zero exit, and no output file.
 
-use crate::raylab;
-use std::path::{Path, PathBuf};
-use std::process::Output;
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
+use crate::{raylab, stderr, write};
 
 const GOOD: &str = r#"[image]
 width = 16

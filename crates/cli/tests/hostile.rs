@@ -459,6 +459,58 @@ fn cases() -> Vec<(Vec<&'static str>, Expect)> {
         vec!["grad", "image.exr", "-o", ".", "--param", "camera.fov"],
         Refused("an image would overwrite the scene"),
     ));
+    // Parameters set on the command line (`--set`): checked as the file's
+    // numbers are, in every command that takes them.
+    for (set, expect) in [
+        (&["sphere[0].center=[0,0,3e38]"][..], beyond),
+        (
+            &["sphere[0].radius=-0"][..],
+            "`radius` must be positive, got -0",
+        ),
+        (
+            &["light[0].color=[1e30,1e30,1e30]", "light[0].intensity=1e30"][..],
+            "--set light[0].intensity: `color` × `intensity`",
+        ),
+        (
+            &["light[0].intensity=1e39"][..],
+            "`1e39` is not a finite number",
+        ),
+        (
+            &["materials.m.color=[nan,0,0]"][..],
+            "`nan` is not a finite number",
+        ),
+        (
+            &["sphere[99999999999].radius=1"][..],
+            "index `99999999999` in `sphere[99999999999]` is not a non-negative integer",
+        ),
+        (
+            &["mesh[0].vertices[0..1000000000]=[1,2,3]"][..],
+            "the scene has 0 `[[mesh]]` entries",
+        ),
+    ] {
+        for mut cmd in [
+            vec!["render", "ok.toml", "-o", "x.png"],
+            vec!["render", "ok.toml", "-o", "x.png", "--device", "gpu"],
+            vec!["grad", "ok.toml", "-o", "grad", "--param", "camera.fov"],
+        ] {
+            for s in set {
+                cmd.extend(["--set", s]);
+            }
+            cases.push((cmd, Refused(expect)));
+        }
+    }
+    // The smallest positive radius is a valid scene.
+    cases.push((
+        vec![
+            "render",
+            "ok.toml",
+            "-o",
+            "x.png",
+            "--set",
+            "sphere[0].radius=1e-45",
+        ],
+        Runs(""),
+    ));
     // Valid TOML the parser once refused.
     cases.push((vec!["render", "dotted.toml", "-o", "x.png"], Runs("")));
     cases

@@ -1,7 +1,8 @@
 //! The `raylab` command's integration tests, gathered into one binary: every
 //! subcommand run as a user runs it (exit codes, messages, files written),
 //! experiments, shards and merges, `raylab plot`, `optimize`, `spectrum`,
-//! `stats`, and `--device gpu`; and the workspace's layering (`layers`).
+//! `stats`, `--set` on `render` and `grad` (`set`), and `--device gpu`; and
+//! the workspace's layering (`layers`).
 
 use std::process::{Command, Output};
 
@@ -16,6 +17,7 @@ mod layers;
 mod memory;
 mod optimize;
 mod redraw;
+mod set;
 mod shard;
 mod spectrum;
 mod stats;
@@ -34,6 +36,18 @@ pub fn raylab(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("running raylab")
+}
+
+/// What a finished command wrote to stderr, as text.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Writes `text` to `dir/name` (a test's scene or manifest); its path.
+pub fn write(dir: &std::path::Path, name: &str, text: &str) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
 }
 
 /// A small valid scene, 8×6 pixels: one lit grey sphere. The hostile-input

@@ -315,6 +315,7 @@ fn the_grad_estimate_bounds_its_growth_per_pixel_within_ten_percent() {
                         height: Some(n),
                         ..Default::default()
                     },
+                    settings: Vec::new(),
                     integrator: raylab::integrator::IntegratorKind::parse(integrator).unwrap(),
                     params: params.iter().map(|p| p.to_string()).collect(),
                     check: None,

@@ -19,6 +19,7 @@
 //! failed and keep that part's own typed error: the core's
 //! [`InputError`], [`OutputError`], [`raylab::diff::DiffError`],
 //! [`raylab::integrator::RenderError`], [`raylab::gi::GiError`],
+//! [`raylab::scene::param::SetError`],
 //! [`raylab::accel::AccelError`] and [`CameraError`];
 //! [`analysis::plot::PlotError`]
 //! (plotting stays usable alone, so it has its own narrow error),
@@ -147,6 +148,12 @@ pub enum Error {
     /// `.png`, neither a mesh nor a scene to validate.
     #[error("{0}")]
     Argument(String),
+    /// A `--set PATH=VALUE` that the scene has no parameter for, of the
+    /// wrong shape, or that leaves the scene invalid. A usage error, found
+    /// only once the scene is read: the command line exits with status 2
+    /// for it, as for the options clap refuses ([`Error::is_usage`]).
+    #[error(transparent)]
+    Set(#[from] raylab::scene::param::SetError),
     /// An error about a scene file: the file, then what went wrong with
     /// it.
     #[error("{}: {error}", path.display())]
@@ -379,6 +386,13 @@ pub fn check_threads(threads: Option<usize>) -> Result<(), Error> {
 }
 
 impl Error {
+    /// Whether it is a usage error found past the command line's own
+    /// parsing (a `--set` the scene refuses): the command exits with
+    /// status 2 for it, as clap does for the options it refuses.
+    pub fn is_usage(&self) -> bool {
+        matches!(self, Error::Set(_))
+    }
+
     /// [`Error::Io`]: `op` on `path` failed with `error`.
     pub fn io(path: impl Into<PathBuf>, op: FileOp, error: std::io::Error) -> Self {
         Error::Io {

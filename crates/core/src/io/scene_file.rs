@@ -10,12 +10,14 @@
 //! so that an error found later (a parameter set out of range by a
 //! finite difference, a camera whose frame degenerates) still names its
 //! place, and so that new values of parameters can be written back into
-//! the text ([`SceneSource::text_with`]).
+//! the text ([`SceneSource::text_with`]). Parameters set on the command
+//! line (`--set PATH=VALUE`) are written into its description and checked
+//! by [`SceneSource::set`], before the scene is built.
 
 use super::procedural::Procedural;
 use super::{line_col, InputError, Place};
 use crate::accel::AccelKind;
-use crate::camera::CameraDesc;
+use crate::camera::{Camera, CameraDesc};
 use crate::film::Filter;
 use crate::light::Falloff;
 use crate::material::Material;
@@ -25,7 +27,7 @@ use crate::scene::description::{
     EllipsoidDesc, LightDesc, MeshDesc, NamedMaterial, Normals, PlaneDesc, Scale, SceneDescription,
     SphereDesc, TriangleDesc,
 };
-use crate::scene::param::{Entity, Target, ValueShape};
+use crate::scene::param::{Entity, SetError, Setting, Target, ValueShape};
 use crate::scene::{RenderSettings, Scene, SceneError};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -289,6 +291,49 @@ impl SceneSource {
         Ok(source)
     }
 
+    /// Set parameters of the description from the command line (`--set
+    /// PATH=VALUE`, [`Setting`]), in order (a later one wins), after the
+    /// [`Overrides`]; then check the result as the file was checked
+    /// ([`SceneDescription::check`], and the camera's frame, which
+    /// building the scene would refuse). An error names the setting after
+    /// which the scene stopped being valid, with the message the file
+    /// would get. The text stays the file's: after a setting the
+    /// description differs from it (errors are still placed in it).
+    pub fn set(&mut self, settings: &[Setting]) -> Result<(), SetError> {
+        if settings.is_empty() {
+            return Ok(());
+        }
+        let error = |s: &Setting, message: String| SetError {
+            path: s.path.clone(),
+            message,
+        };
+        let mut desc = self.description.clone();
+        for s in settings {
+            desc.apply_setting(s).map_err(|e| error(s, e.message))?;
+        }
+        if let Err(message) = valid(&desc) {
+            // A file whose own scene is invalid (a camera frame that only
+            // the build refuses) is left as it is: building it gives the
+            // file's error, which comes first.
+            if valid(&self.description).is_err() {
+                return Ok(());
+            }
+            // The last setting before which the scene was still valid.
+            let mut blamed = 0;
+            let mut before = self.description.clone();
+            for (k, s) in settings.iter().enumerate().take(settings.len() - 1) {
+                // Resolved above, in a description of the same entities.
+                let _ = before.apply_setting(s);
+                if valid(&before).is_ok() {
+                    blamed = k + 1;
+                }
+            }
+            return Err(error(&settings[blamed], message));
+        }
+        self.description = desc;
+        Ok(())
+    }
+
     /// The scene this file describes.
     pub fn build(&self) -> Result<Scene, InputError> {
         self.build_from(&self.description)
@@ -400,6 +445,21 @@ impl SceneSource {
             Entity::Mesh(i) => array("mesh", i, table),
             Entity::Light(i) => array("light", i, table),
         }
+    }
+}
+
+/// Whether `desc` is a valid scene, as a scene file is checked: the
+/// numbers' ranges and the camera's frame; the message is the one a file
+/// gets, without the file's name.
+fn valid(desc: &SceneDescription) -> Result<(), String> {
+    desc.check().map_err(|v| match v.entity {
+        Entity::Camera => format!("[camera]: {}", v.message),
+        Entity::Render => format!("[render]: {}", v.message),
+        _ => v.message,
+    })?;
+    match Camera::new(&desc.camera, desc.width, desc.height) {
+        Ok(_) => Ok(()),
+        Err(e) => Err(format!("[camera]: {e}")),
     }
 }
 

@@ -9,8 +9,10 @@ use crate::{Error, FileOp, Result};
 use raylab::diff::{self, Comparison, GradientRender, Gradients, Renderer};
 use raylab::integrator::IntegratorKind;
 use raylab::io::image::{write_exr_channels, write_film_exr, ChannelData};
-use raylab::io::scene_file::Overrides;
+use raylab::io::scene_file::{Overrides, SceneSource};
 use raylab::scene::param::ParamId;
+use raylab::scene::param::Setting;
+use raylab::scene::Scene;
 use raylab::stats::NoStats;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -55,6 +57,9 @@ pub struct GradOptions {
     /// The folder the images are written to (created if missing).
     pub out_dir: PathBuf,
     pub overrides: Overrides,
+    /// Scene parameters set to new values (`--set PATH=VALUE`), in order,
+    /// before the derivatives are taken.
+    pub settings: Vec<Setting>,
     pub integrator: IntegratorKind,
     /// Parameter names as given (`materials.red.color`, `sphere[0].radius`).
     pub params: Vec<String>,
@@ -100,18 +105,27 @@ pub struct GradReport {
     pub rows: Vec<ParamRow>,
 }
 
+/// The scene file read with the overrides and `--set`'s values, and its
+/// scene, built once.
+fn load(opts: &GradOptions) -> Result<(SceneSource, Scene)> {
+    let mut source = SceneSource::load(&opts.scene, &opts.overrides)?;
+    source.set(&opts.settings)?;
+    let scene = source.build()?;
+    Ok((source, scene))
+}
+
 impl GradReport {
     /// The memory `run` checks for before it starts, in bytes: what the
     /// tests measure the peak against.
     pub fn memory(opts: &GradOptions) -> Result<u128> {
-        let (source, scene) = diff::load(&opts.scene, &opts.overrides)?;
+        let (source, scene) = load(opts)?;
         let params = diff::resolve_all(&opts.params, &source.description)?;
         Ok(grad_bytes(opts, &scene, &source.description, &params))
     }
 
     pub fn run(opts: &GradOptions) -> Result<Self> {
         crate::check_threads(opts.threads)?;
-        let (source, scene) = diff::load(&opts.scene, &opts.overrides)?;
+        let (source, scene) = load(opts)?;
         let desc = &source.description;
         let params = diff::resolve_all(&opts.params, desc)?;
         diff::check_supported(&scene, &opts.integrator)?;

@@ -13,8 +13,9 @@ use raylab::film::memory::Bytes;
 use raylab::film::Filter;
 use raylab::integrator::{IntegratorKind, Prepared};
 use raylab::io::image::{read_image, write_image, ImageFormat};
-use raylab::io::scene_file::{load_scene, Overrides};
+use raylab::io::scene_file::{Overrides, SceneSource};
 use raylab::sampler::Sampler;
+use raylab::scene::param::Setting;
 use raylab::stats::{Counters, RayCounts};
 use std::fmt;
 use std::path::PathBuf;
@@ -30,6 +31,8 @@ pub struct RenderOptions {
     /// Settings that override the scene file's (size, sampler, filter,
     /// accelerator, depth, seed).
     pub overrides: Overrides,
+    /// Scene parameters set to new values (`--set PATH=VALUE`), in order.
+    pub settings: Vec<Setting>,
     /// The integrator, with its options already applied.
     pub integrator: IntegratorKind,
     /// A reference image to report MSE, relMSE and ꟻLIP against.
@@ -284,7 +287,10 @@ impl RenderReport {
         outputs.extend(opts.spp_map.as_deref().map(|m| ("--spp-map", m)));
         raylab::io::check_outputs(&inputs, &outputs)?;
         let t0 = Instant::now();
-        let scene = load_scene(&opts.scene, &opts.overrides)?;
+        // The file's scene with `--set`'s values, built once.
+        let mut source = SceneSource::load(&opts.scene, &opts.overrides)?;
+        source.set(&opts.settings)?;
+        let scene = source.build()?;
         let load_s = t0.elapsed().as_secs_f64();
         let threads = opts.threads.unwrap_or_else(rayon::current_num_threads);
         let holds = render_holds(&scene, opts, threads);

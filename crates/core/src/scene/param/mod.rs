@@ -5,7 +5,8 @@
 //! into an id, the id's canonical name, reading and writing its value in a
 //! [`SceneDescription`], and listing every parameter a scene has. Seeding
 //! dual numbers ([`super::build::Numbers`]), the finite-difference check
-//! and inverse rendering's updates all go through it.
+//! and inverse rendering's updates all go through it, and so does the
+//! command line's `--set PATH=VALUE` ([`Setting`]).
 //!
 //! An id is an entity (`sphere[1]`), a field of that entity's kind
 //! ([`SphereField::Radius`]: the kinds' field enums make a misspelt field
@@ -262,7 +263,10 @@ pub struct ParamError {
 }
 
 mod path;
+mod setting;
 mod values;
+
+pub use setting::{SetError, SetValue, Setting, SettingError};
 
 impl SceneDescription {
     /// The entity's name as a parameter's prefix (`materials.red`,
