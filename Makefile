@@ -11,7 +11,8 @@ OUT := out/demo
 all: build
 
 ## deps: install what is missing (idempotent): real meshes from Debian packages,
-## Embree, the book's tools, a Vulkan driver (lavapipe) for the GPU port.
+## Embree, the book's tools, a Vulkan driver (lavapipe) for the GPU port,
+## Chromium for checking the book in a browser.
 deps:
 	@scripts/deps
 
@@ -56,14 +57,17 @@ demo: build
 ## scripts on a throwaway local cluster (scripts/test-slurm); then the book is
 ## built with the release build (figures from the quick experiments and the
 ## committed full runs, numbers substituted from their data) and its pages
-## checked. scripts/test runs the steps (make deps first) and says how long
-## each took.
+## checked, as HTML and in headless Chromium (see book). scripts/test runs the
+## steps (make deps first) and says how long each took.
 test:
 	@scripts/test
 
 ## book: the book (book/book/index.html): the quick experiments make its
 ## figures, mdBook + mdbook-katex (installed into .deps/tools when missing)
-## build it, and scripts/check-book-links.py checks its links, images, maths and titles.
+## build it, and scripts/check-book-links.py checks its links, images, maths and titles;
+## scripts/check-book-browser.py then opens every page in headless Chromium and fails
+## on a maths error, raw TeX, an image that did not load, a page wider than the
+## window or a console error, and saves screenshots of a few pages in book/book-screenshots/.
 book: build
 	@scripts/book
 
@@ -82,4 +86,4 @@ bench-peers: build
 
 clean:
 	$(CARGO) clean
-	rm -rf out analysis/out book/book book/src/figures
+	rm -rf out analysis/out book/book book/book-screenshots book/src/figures

@@ -15,7 +15,9 @@ committed full run), never a copy that drifts. Two directives:
     - ``AGG(COLUMN | key=value, key=value)``: AGG is ``one`` (exactly one row
       may match), ``mean``, ``median``, ``min``, ``max``, ``sum`` or
       ``count``, over the rows of ``data.csv`` whose columns equal the given
-      values (numbers compare as numbers: ``spp=1`` matches ``1.0``); with no
+      values (numbers compare as numbers: ``spp=1`` matches ``1.0``;
+      ``key~REGEX`` selects the rows whose column the regular expression
+      matches, quoted if it holds ``,`` or ``)``); with no
       ``| …`` every row counts. ``AGG(FILE.csv: COLUMN | …)`` reads another
       CSV file of the run's folder (a study's side table);
     - ``meta(FIELD)``: a number of the run's ``meta.json`` (``wall_time_s``,
@@ -39,7 +41,10 @@ committed full run), never a copy that drifts. Two directives:
     A comparative sentence's evidence: the relation (OP is ``<``, ``<=``,
     ``>`` or ``>=``; both sides are EXPRs as in ``#value``, over the same
     SOURCE) must hold in the data, or the build fails naming the page, the
-    line and both values. It renders as nothing, so it sits in the sentence
+    line and both values. ``{{#assert SOURCE for each COLUMN | key=value, …:
+    EXPR OP EXPR}}`` checks the relation once per distinct value of COLUMN
+    among the selected rows, with ``@`` in it standing for the value (a
+    claim "on every mesh"). It renders as nothing, so it sits in the sentence
     it backs: "raylab is faster on every mesh{{#assert full/embree-speed
     min(ratio) > 1}}". Quick runs are made anew at every build, so an
     assertion over a quick run may not use a timing: prose compares times
@@ -108,7 +113,7 @@ class Run:
             where = "scripts/book's quick run" if kind == "quick" else f"analysis/results/{study}"
             raise BookError(f"source {source!r}: no {meta.relative_to(ROOT)} (from {where})")
         self.meta = json.loads(meta.read_text())
-        if kind == "full" and self.meta.get("git_dirty") is not False and not os.environ.get("BOOK_DRAFT"):
+        if kind == "full" and self.meta.get("git_dirty") is not False:
             why = ("with local changes" if self.meta.get("git_dirty")
                    else "outside a git work tree")
             raise BookError(f"source {source!r}: analysis/results/{study}/meta.json was made {why} "
@@ -150,6 +155,13 @@ def same(a, b):
 
 
 ASSERTIONS = []  # (page:line, relation) of every assertion that held
+def matches(cell, condition):
+    """A selector's condition (``=VALUE`` or ``~REGEX``) on one cell."""
+    if condition.startswith("~"):
+        return re.search(condition[1:], cell) is not None
+    return same(cell, condition[1:])
+
+
 OUTPUTS = {}  # command line -> what it printed: each command runs once per build
 
 
@@ -286,10 +298,16 @@ class Parser:
             self.pos += self.text[self.pos :].index("|") + 1
             while True:
                 item = self.raw_until(",)")
-                if "=" not in item:
-                    raise BookError(f"selector {item!r} in {self.text!r}: expected key=value")
-                key, value = (s.strip().strip('"') for s in item.split("=", 1))
-                selector.append((key, value))
+                m = re.match(r'\s*([^=~]+?)\s*([=~])\s*(.*)$', item, re.S)
+                if not m:
+                    raise BookError(f"selector {item!r} in {self.text!r}: expected key=value or key~regex")
+                key, op, value = m.group(1), m.group(2), m.group(3).strip().strip('"')
+                if op == "~":
+                    try:
+                        re.compile(value)
+                    except re.error as e:
+                        raise BookError(f"selector {item!r} in {self.text!r}: bad regex: {e}")
+                selector.append((key, op + value))
                 if self.peek()[1] != ",":
                     break
                 self.take(",")
@@ -312,8 +330,8 @@ class Parser:
             raise BookError(f"{self.run.source}: {column!r} is a timing and the run's build was "
                             f"not optimised; timings in the book come from release builds")
         self.columns.append(column)
-        chosen = [r for r in rows if all(same(r[k], v) for k, v in selector)]
-        where = ", ".join(f"{k}={v}" for k, v in selector) or "all rows"
+        chosen = [r for r in rows if all(matches(r[k], v) for k, v in selector)]
+        where = ", ".join(f"{k}{v}" for k, v in selector) or "all rows"
         if agg == "count":
             return float(len(chosen))
         if not chosen:
@@ -357,7 +375,7 @@ class Parser:
         self.columns += [x_col, y_col]
         by_x = {}
         for r in rows:
-            if all(same(r[k], v) for k, v in selector):
+            if all(matches(r[k], v) for k, v in selector):
                 try:
                     x, y = float(r[x_col]), float(r[y_col])
                 except ValueError:
@@ -365,7 +383,7 @@ class Parser:
                 if x > 0 and y > 0 and math.isfinite(x) and math.isfinite(y):
                     by_x.setdefault(x, []).append(y)
         uv = [(math.log10(x), math.log10(statistics.fmean(ys))) for x, ys in by_x.items()]
-        where = ", ".join(f"{k}={v}" for k, v in selector) or "all rows"
+        where = ", ".join(f"{k}{v}" for k, v in selector) or "all rows"
         if len(uv) < 2:
             raise BookError(f"{self.run.source}: slope({x_col}, {y_col} | {where}) has fewer than "
                             f"two distinct positive {x_col} values")
@@ -466,13 +484,43 @@ def split_relation(text):
     return text[:i].strip(), op, text[i + len(op) :].strip()
 
 
+# The relation follows the first ": " (a colon and a space; a value such as
+# icosphere:7 has no space after its colon).
+FOR_EACH = re.compile(r"for\s+each\s+(\w+)\s*(?:\|(.*?))?:\s+(.*)$", re.S)
+
+
 def check_assertion(body, runs, raylab):
-    """``{{#assert SOURCE EXPR OP EXPR}}``: raise unless the relation holds."""
+    """``{{#assert SOURCE EXPR OP EXPR}}``: raise unless the relation holds.
+    ``{{#assert SOURCE for each COLUMN | key=value, …: EXPR OP EXPR}}``: for
+    every distinct value of COLUMN among the selected rows of data.csv, with
+    ``@`` in the relation replaced by that value."""
     source, _, rest = body.partition(" ")
-    lhs, op, rhs = split_relation(rest)
     if source not in runs:
         runs[source] = Commands(raylab) if source == "cmd" else Run(source)
     run = runs[source]
+    each = FOR_EACH.match(rest)
+    if each:
+        column, where, relation = each.group(1), each.group(2) or "", each.group(3)
+        if not isinstance(run, Run):
+            raise BookError("for each needs a run's data.csv, not cmd")
+        parser = Parser(f"count({column} | {where})" if where.strip() else f"count({column})", run)
+        parser.parse()
+        rows = run.table("data.csv")
+        selector = Parser(f"| {where})" if where.strip() else ")", run).selector()
+        keys = list(dict.fromkeys(r[column] for r in rows if all(matches(r[k], v) for k, v in selector)))
+        if not keys:
+            raise BookError(f"{source}: no rows for each {column} where {where.strip() or 'all rows'}")
+        for key in keys:
+            if "," in key or ")" in key or '"' in key:
+                raise BookError(f"{source}: {column} value {key!r} cannot stand in a selector")
+            check_relation(relation.replace("@", key), source, run, f" for {column}={key}")
+        return run
+    check_relation(rest, source, run, "")
+    return run
+
+
+def check_relation(text, source, run, label):
+    lhs, op, rhs = split_relation(text)
     values, columns = [], []
     for side in (lhs, rhs):
         parser = Parser(side, run)
@@ -483,9 +531,8 @@ def check_assertion(body, runs, raylab):
         raise BookError(f"asserts over {', '.join(dict.fromkeys(timed))} of a quick run: timings of "
                         f"quick runs change at every build; compare a committed full run's")
     if not RELATIONS[op](*values):
-        raise BookError(f"the claim no longer holds: {lhs} = {values[0]:.6g} is not {op} "
+        raise BookError(f"the claim no longer holds{label}: {lhs} = {values[0]:.6g} is not {op} "
                         f"{rhs} = {values[1]:.6g} in {source}; the sentence it backs must change")
-    return run
 
 
 def format_value(value, fmt):

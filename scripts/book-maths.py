@@ -12,6 +12,11 @@ character Markdown could act on, inside a `<math>` element, is written as a
 character reference, which Markdown leaves alone and a browser reads as the
 character itself: the maths and its annotation come out as KaTeX made them.
 
+One rewrite of KaTeX's MathML: a prime is a superscript there
+(`<msup><mi>f</mi><mo>′</mo></msup>`), which Chromium draws as a tiny mark
+far above the letter. A superscript of primes only becomes a plain row,
+letter then primes, which every browser draws as f′.
+
 Usage (book.toml): [preprocessor.maths] command = "python3 scripts/book-maths.py",
 after = ["katex"]. `scripts/check-book-links.py` checks the built pages
 for TeX left outside rendered maths.
@@ -24,6 +29,20 @@ import sys
 MATH = re.compile(r"<math\b.*?</math>", re.S)
 TEXT = re.compile(r">([^<]+)<")
 ACTIVE = {c: f"&#{ord(c)};" for c in "\\_*`[]~$"}
+# A base without children (<mi>, <mn>, <mo>) and a superscript of primes only:
+# one <mo>, or an <mrow> of them.
+PRIME = '<mo[^>]*>[′″‴]</mo>'
+PRIMED = re.compile(
+    r"<msup>(<m[ino]\b[^>]*>[^<]*</m[ino]>)(" + PRIME + r"|<mrow>(?:" + PRIME + r")+</mrow>)</msup>"
+)
+
+
+def unraise_primes(maths):
+    def row(m):
+        primes = re.findall(r"[′″‴]", m.group(2))
+        return "<mrow>" + m.group(1) + "".join(f'<mo lspace="0em" rspace="0em">{p}</mo>' for p in primes) + "</mrow>"
+
+    return PRIMED.sub(row, maths)
 
 
 def protect_text(m):
@@ -31,7 +50,7 @@ def protect_text(m):
 
 
 def protect(content):
-    return MATH.sub(lambda m: TEXT.sub(protect_text, m.group(0)), content)
+    return MATH.sub(lambda m: TEXT.sub(protect_text, unraise_primes(m.group(0))), content)
 
 
 def walk(items):

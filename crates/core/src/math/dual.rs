@@ -19,6 +19,7 @@
 use super::Real;
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
+// ANCHOR: dual
 /// A value with its partial derivatives with respect to K parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Dual<const K: usize> {
@@ -46,6 +47,7 @@ impl<const K: usize> Dual<K> {
         }
     }
 }
+// ANCHOR_END: dual
 
 impl<const K: usize> Default for Dual<K> {
     fn default() -> Self {
@@ -62,6 +64,7 @@ impl<const K: usize> Real for Dual<K> {
     fn value(self) -> f32 {
         self.v
     }
+    // ANCHOR: dual_sqrt
     #[inline(always)]
     fn sqrt(self) -> Self {
         let s = self.v.sqrt();
@@ -72,6 +75,7 @@ impl<const K: usize> Real for Dual<K> {
         }
         self.chain(s, 0.5 / s)
     }
+    // ANCHOR_END: dual_sqrt
     #[inline(always)]
     fn powf(self, e: f32) -> Self {
         let p = self.v.powf(e);
@@ -147,6 +151,7 @@ impl<const K: usize> Neg for Dual<K> {
     }
 }
 
+// ANCHOR: dual_mul
 // The product rule adds: (uv)′ = u′v + uv′.
 #[allow(clippy::suspicious_arithmetic_impl)]
 impl<const K: usize> Mul for Dual<K> {
@@ -159,6 +164,7 @@ impl<const K: usize> Mul for Dual<K> {
         }
     }
 }
+// ANCHOR_END: dual_mul
 
 impl<const K: usize> Div for Dual<K> {
     type Output = Self;

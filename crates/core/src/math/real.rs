@@ -18,6 +18,7 @@ use glam::Vec3;
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
+// ANCHOR: real_trait
 /// A real number as the shading kernels need it: `f32`, or a dual number
 /// carrying derivatives alongside its value.
 pub trait Real:
@@ -46,6 +47,7 @@ pub trait Real:
     fn sin(self) -> Self;
     fn cos(self) -> Self;
     fn tan(self) -> Self;
+    // ANCHOR_END: real_trait
 
     #[inline(always)]
     fn zero() -> Self {

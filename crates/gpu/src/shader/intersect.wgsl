@@ -7,6 +7,7 @@ const MISS = PrimHit(-1.0, 0.0, 0.0);
 
 // f32::signum: ±1 by the sign bit (signum(+0) = 1, unlike WGSL's sign)
 fn signum(x: f32) -> f32 { return select(1.0, -1.0, (bitcast<u32>(x) >> 31u) != 0u); }
+// ANCHOR: roots
 // Sphere::roots: the stable quadratic; (t0, t1, ok)
 fn roots(o: vec3<f32>, d: vec3<f32>, centre: vec3<f32>, radius: f32) -> vec3<f32> {
     let fv = o - centre;
@@ -22,6 +23,7 @@ fn roots(o: vec3<f32>, d: vec3<f32>, centre: vec3<f32>, radius: f32) -> vec3<f32
     if t0 <= t1 { return vec3<f32>(t0, t1, 1.0); }
     return vec3<f32>(t1, t0, 1.0);
 }
+// ANCHOR_END: roots
 // sphere::nearest_root
 fn nearest_root(r: vec3<f32>, t_max: f32) -> PrimHit {
     if r.z == 0.0 { return MISS; }

@@ -75,6 +75,7 @@ impl EmbreeAccel {
         })
     }
 
+    // ANCHOR: intersect1
     /// One `rtcIntersect1`: the ray/hit record after the query, or `None`
     /// on a miss or an empty interval.
     #[inline]
@@ -100,6 +101,7 @@ impl EmbreeAccel {
         }
         (rh.rayhit.hit.geomID != INVALID_ID).then_some(rh.rayhit)
     }
+    // ANCHOR_END: intersect1
 
     /// One `rtcOccluded1`: whether anything is hit in (0, t_max).
     #[inline]

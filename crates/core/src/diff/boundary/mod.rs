@@ -31,9 +31,12 @@
 //! the [`DualScene`] (the silhouette moves with the sphere, the eye, the
 //! light), dx/dt from the same formulas on a one-wide dual seeded with t.
 //! The two radiance values share their random numbers, so what they have
-//! in common cancels. Occlusion needs no test of its own: where something
-//! hides the curve, both rays see the same thing and the difference is 0.
-//! The expectation is the line integral for every pixel the curve
+//! in common cancels. A sample counts only where the eye sees the curve
+//! point (or, for a shadow edge, the shadow point): where something hides
+//! the curve, both rays see the hiding surface and differ by its smooth
+//! change over 2ε, an error of one sign along the hidden stretch that does
+//! not average out, so one more ray tests visibility (`eye_sees`, or the
+//! mirror's `shows`). The expectation is the line integral for every pixel the curve
 //! crosses, so interior + boundary is an unbiased estimate of the whole
 //! derivative, up to the offset ε: f± are taken ε pixels from the curve
 //! (smooth shading there differs from its limit by O(ε), at a sphere's
@@ -554,6 +557,7 @@ fn sample_curve<const K: usize>(
         if !seen {
             continue;
         }
+        // ANCHOR: edge_sample
         // ⊥(dx/dt): a normal of the curve on the film, |dx/dt| long.
         let normal = (-y1.d[0], x1.d[0]);
         let len = normal.0.hypot(normal.1);
@@ -566,6 +570,7 @@ fn sample_curve<const K: usize>(
         if speed.iter().all(|&v| v == 0.0) {
             continue;
         }
+        // ANCHOR_END: edge_sample
         // A reflecting or refracting sphere's silhouette seen directly
         // (under Whitted): the colour inside is taken in its limit.
         let mut limit = None;
@@ -605,6 +610,7 @@ fn sample_curve<const K: usize>(
                 OFFSET_PX.max(band / (per_px * (s.value() - eye).length()))
             }
         };
+        // ANCHOR: edge_sample_add
         let (pixel, ctx) = landed(&mut stats, (x.v, y.v), w, index, seed);
         let jump = jump(
             scene,
@@ -615,6 +621,7 @@ fn sample_curve<const K: usize>(
             limit,
         );
         sums.add(pixel, jump, &speed);
+        // ANCHOR_END: edge_sample_add
     }
     CurveResult {
         sums,

@@ -17,6 +17,7 @@ use std::collections::HashMap;
 /// film normal times [`OFFSET_PX`]), both with the sample's own random
 /// numbers `ctx`, so that what they have in common cancels; on the side
 /// `limit` names (+1 or −1) its value there instead ([`grazing`]).
+// ANCHOR: edge_jump
 pub(super) fn jump(
     scene: &Scene,
     integrator: &IntegratorKind,
@@ -35,6 +36,7 @@ pub(super) fn jump(
     let (plus, minus) = (f(1.0), f(-1.0));
     [minus.x - plus.x, minus.y - plus.y, minus.z - plus.z].map(f64::from)
 }
+// ANCHOR_END: edge_jump
 
 /// The Whitted colour at the silhouette point `s` of the sphere or
 /// ellipsoid `prim` seen from the eye, in the limit from inside: the

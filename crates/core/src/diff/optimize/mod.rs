@@ -239,6 +239,7 @@ impl Optimizer {
         }
     }
 
+    // ANCHOR: adam
     /// Move `theta` against `gradient` with per-component `rates` (already
     /// scheduled), then project into `[min, max]`.
     pub fn step(
@@ -266,6 +267,7 @@ impl Optimizer {
             theta[k] = (theta[k] - delta).clamp(lo, hi);
         }
     }
+    // ANCHOR_END: adam
 }
 
 /// The mean of the last `n` of `iterates` (all of them if fewer; the last
@@ -478,6 +480,7 @@ impl Problem {
         scene.settings.seed = seed_of(self.spec.seed, u64::from(i), PRIMAL);
         scene.settings.sampler = self.spec.image_sampler;
         let (film, _) = self.spec.integrator.render::<NoStats>(&scene, threads)?;
+        // ANCHOR: loss_gradient
         let (loss, dl) = self.spec.loss.evaluate(&film.box_image(), &self.target);
         let gradient: Vec<f64> = grads
             .planes
@@ -485,6 +488,7 @@ impl Problem {
             .iter()
             .map(|d| d.iter().zip(&dl).map(|(&a, &b)| f64::from(a) * b).sum())
             .collect();
+        // ANCHOR_END: loss_gradient
         let record = Iteration {
             index: i,
             theta: theta.to_vec(),
